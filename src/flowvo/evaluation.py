@@ -1,0 +1,94 @@
+"""Evaluate a predicted trajectory against ground truth: the KITTI metric, ATE, RPE, per-frame errors."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from flowvo.atomic import atomic_open, write_json_atomic
+from flowvo.kitti.poses import read_kitti_poses
+from flowvo.metrics import kitti_odometry as kitti
+from flowvo.metrics.trajectory_errors import ate_rmse_m, per_frame_errors, rpe
+from flowvo.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """All numbers of one evaluation (``metrics``, JSON-ready) and the arrays behind the plots."""
+
+    metrics: dict
+    gt: Trajectory
+    pred: Trajectory
+    segments: kitti.SegmentErrors
+    frame_errors: dict[str, np.ndarray]
+
+
+def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> Evaluation:
+    """The KITTI odometry metric (needs no alignment), ATE after ``alignment``, and one-frame RPE."""
+    segments = kitti.sequence_segment_errors(gt, pred)
+    metrics = kitti.summarize(segments)
+    metrics["units"] = {
+        "t_err_percent": "% of segment length",
+        "r_err_deg_per_m": "degrees per metre",
+        "r_err_deg_per_100m": "degrees per 100 m",
+        "ate_rmse_m": "metres",
+    }
+    metrics["ate_alignment"] = alignment
+    metrics["ate_rmse_m"] = ate_rmse_m(gt, pred, alignment)
+    metrics.update(rpe(gt, pred))
+    metrics["frames_gt"] = len(gt)
+    metrics["frames_predicted"] = int(np.isin(pred.frame_ids, gt.frame_ids).sum())
+    metrics["path_length_m"] = float(kitti.trajectory_distances(gt.positions)[-1])
+    return Evaluation(metrics, gt, pred, segments, per_frame_errors(gt, pred))
+
+
+def evaluate_files(gt_path: str | Path, pred_path: str | Path, alignment: str = "none") -> Evaluation:
+    """Read two KITTI pose files and evaluate; the files are named in the metrics."""
+    evaluation = evaluate(read_kitti_poses(gt_path), read_kitti_poses(pred_path), alignment)
+    evaluation.metrics["gt_file"] = str(gt_path)
+    evaluation.metrics["pred_file"] = str(pred_path)
+    return evaluation
+
+
+def pooled_summary(evaluations: list[Evaluation]) -> dict:
+    """The multi-sequence KITTI average: all segments of all sequences together."""
+    return kitti.summarize(kitti.SegmentErrors.concatenate([e.segments for e in evaluations]))
+
+
+def format_table(metrics: dict) -> str:
+    """A short human-readable table of the headline numbers, with units."""
+    rows = [
+        ("t_err", f"{metrics['t_err_percent']:.4f} %"),
+        ("r_err", f"{metrics['r_err_deg_per_m']:.6f} deg/m  ({metrics['r_err_deg_per_100m']:.4f} deg/100m)"),
+        ("segments", str(metrics["segments"])),
+        (f"ATE RMSE (align {metrics['ate_alignment']})", f"{metrics['ate_rmse_m']:.3f} m"),
+        ("RPE trans RMSE (1 frame)", f"{metrics['rpe_trans_rmse_m']:.4f} m"),
+        ("RPE rot RMSE (1 frame)", f"{metrics['rpe_rot_rmse_deg']:.4f} deg"),
+    ]
+    width = max(len(name) for name, _ in rows)
+    lines = [f"{name.ljust(width)}  {value}" for name, value in rows]
+    lines.append("")
+    lines.append("length_m   t_err_%   r_err_deg/m  segments")
+    for row in metrics["per_length"]:
+        lines.append(
+            f"{row['length_m']:8.0f}  {row['t_err_percent']:8.3f}  {row['r_err_deg_per_m']:11.6f}  {row['segments']:8d}"
+        )
+    return "\n".join(lines)
+
+
+def save_evaluation(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
+    """Write metrics.json, per_frame_errors.csv and the PNG plots into ``out_dir``; returns the files."""
+    from flowvo import plots
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(out / "metrics.json", evaluation.metrics)
+    frame = evaluation.frame_errors
+    table = np.stack([frame["frame_id"], frame["translation_error_m"], frame["rotation_error_deg"]], 1)
+    with atomic_open(out / "per_frame_errors.csv") as handle:
+        handle.write("frame_id,translation_error_m,rotation_error_deg\n")
+        for row in table:
+            handle.write(f"{int(row[0])},{row[1]:.6f},{row[2]:.6f}\n")
+    return [out / "metrics.json", out / "per_frame_errors.csv", *plots.save_evaluation_plots(evaluation, out)]

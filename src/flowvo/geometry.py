@@ -1,0 +1,155 @@
+"""Pose geometry: relative motions, the planar (distance, heading) targets, chaining, SO(3)/SE(3) maps.
+
+Frames: KITTI camera frame, x right, y down, z forward. Poses are camera-to-world ``T_world_cam`` (4x4).
+Units: metres and radians. The ground plane is the camera x-z plane; heading (yaw) is the rotation about
+the camera y axis, ``yaw = atan2(R[0, 2], R[0, 0])``, positive when turning right (towards +x).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# The mirroring rule (one source of truth): reflecting the scene left-right maps a motion T to S T S.
+MIRROR_X = np.diag([-1.0, 1.0, 1.0, 1.0])
+
+
+def wrap_angle_rad(angle_rad: np.ndarray | float) -> np.ndarray:
+    """Wrap angles to (-pi, pi]."""
+    wrapped = np.mod(np.asarray(angle_rad, dtype=np.float64) + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(wrapped == -np.pi, np.pi, wrapped)
+
+
+def invert_se3(T: np.ndarray) -> np.ndarray:
+    """Inverse of rigid transforms (..., 4, 4) using R^T."""
+    R = T[..., :3, :3]
+    t = T[..., :3, 3:]
+    inverse = np.zeros_like(T)
+    Rt = np.swapaxes(R, -1, -2)
+    inverse[..., :3, :3] = Rt
+    inverse[..., :3, 3:] = -Rt @ t
+    inverse[..., 3, 3] = 1.0
+    return inverse
+
+
+def relative_motions(T_world_cam: np.ndarray) -> np.ndarray:
+    """Motions between consecutive poses, ``T_{i-1}^{-1} T_i`` (N-1, 4, 4), in the camera frame of i-1."""
+    return invert_se3(T_world_cam[:-1]) @ T_world_cam[1:]
+
+
+def yaw_rad(T_world_cam: np.ndarray) -> np.ndarray:
+    """Heading about the camera y axis, ``atan2(R[0,2], R[0,0])``, radians, for poses (..., 4, 4)."""
+    return np.arctan2(T_world_cam[..., 0, 2], T_world_cam[..., 0, 0])
+
+
+def planar_targets(T_world_cam: np.ndarray) -> np.ndarray:
+    """The reference system's targets (N-1, 2): distance travelled d_i (m) and heading change (rad).
+
+    ``d_i = ||t_i - t_{i-1}||`` (3-D distance), ``dtheta_i = wrap(yaw_i - yaw_{i-1})`` in (-pi, pi].
+    """
+    distance_m = np.linalg.norm(np.diff(T_world_cam[:, :3, 3], axis=0), axis=1)
+    dyaw_rad = wrap_angle_rad(np.diff(yaw_rad(T_world_cam)))
+    return np.stack([distance_m, dyaw_rad], axis=1)
+
+
+def yaw_rotation(yaw: np.ndarray) -> np.ndarray:
+    """Rotations (..., 3, 3) about the camera y axis by ``yaw`` radians (R[0,2] = sin(yaw))."""
+    c, s = np.cos(yaw), np.sin(yaw)
+    zero, one = np.zeros_like(c), np.ones_like(c)
+    return np.stack(
+        [np.stack([c, zero, s], -1), np.stack([zero, one, zero], -1), np.stack([-s, zero, c], -1)], -2
+    )
+
+
+def chain_planar(targets: np.ndarray, T_world_start: np.ndarray | None = None) -> np.ndarray:
+    """Integrate planar motions (N, 2) = (distance m, heading change rad) into N+1 KITTI poses (N+1, 4, 4).
+
+    Each step moves ``d_i`` along the mean heading of the step, ``yaw_{i-1} + dtheta_i / 2`` (the chord of
+    a constant-curvature arc), in the x-z plane; no elevation, roll or pitch. The start pose (default
+    identity) contributes its position and yaw only.
+    """
+    start = np.eye(4) if T_world_start is None else T_world_start
+    yaw0 = float(yaw_rad(start))
+    dyaw = targets[:, 1]
+    yaws = yaw0 + np.concatenate([[0.0], np.cumsum(dyaw)])
+    mid_yaw = yaws[:-1] + dyaw / 2.0
+    steps = np.stack([targets[:, 0] * np.sin(mid_yaw), np.zeros_like(mid_yaw), targets[:, 0] * np.cos(mid_yaw)], 1)
+    positions = start[:3, 3] + np.concatenate([np.zeros((1, 3)), np.cumsum(steps, axis=0)])
+    positions[:, 1] = start[1, 3]
+    poses = np.tile(np.eye(4), (len(yaws), 1, 1))
+    poses[:, :3, :3] = yaw_rotation(yaws)
+    poses[:, :3, 3] = positions
+    return poses
+
+
+def chain_se3(motions: np.ndarray, T_world_start: np.ndarray | None = None) -> np.ndarray:
+    """Compose relative motions (N, 4, 4) into N+1 poses: ``T_i = T_{i-1} M_i``."""
+    poses = np.empty((len(motions) + 1, 4, 4))
+    poses[0] = np.eye(4) if T_world_start is None else T_world_start
+    for i, motion in enumerate(motions):
+        poses[i + 1] = poses[i] @ motion
+    return poses
+
+
+def _skew(w: np.ndarray) -> np.ndarray:
+    zero = np.zeros_like(w[..., 0])
+    return np.stack(
+        [
+            np.stack([zero, -w[..., 2], w[..., 1]], -1),
+            np.stack([w[..., 2], zero, -w[..., 0]], -1),
+            np.stack([-w[..., 1], w[..., 0], zero], -1),
+        ],
+        -2,
+    )
+
+
+def so3_exp(rotvec: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) from axis-angle vectors (..., 3), radians (Rodrigues)."""
+    theta = np.linalg.norm(rotvec, axis=-1)[..., None, None]
+    K = _skew(rotvec)
+    small = theta < 1e-8
+    safe = np.where(small, 1.0, theta)
+    a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(safe) / safe)
+    b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
+    return np.eye(3) + a * K + b * (K @ K)
+
+
+def so3_log(rotation: np.ndarray) -> np.ndarray:
+    """Axis-angle vectors (..., 3), radians, of rotations (..., 3, 3); accurate for angles below ~3 rad."""
+    cos_theta = np.clip((np.trace(rotation, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
+    theta = np.arccos(cos_theta)
+    vee = np.stack(
+        [
+            rotation[..., 2, 1] - rotation[..., 1, 2],
+            rotation[..., 0, 2] - rotation[..., 2, 0],
+            rotation[..., 1, 0] - rotation[..., 0, 1],
+        ],
+        -1,
+    )
+    sin_theta = np.sin(theta)
+    small = sin_theta < 1e-8
+    scale = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, sin_theta)))
+    return vee * scale[..., None]
+
+
+def se3_targets(motions: np.ndarray) -> np.ndarray:
+    """6-DoF targets (N, 6) of relative motions: translation (m, camera frame of i-1) then axis-angle (rad)."""
+    return np.concatenate([motions[:, :3, 3], so3_log(motions[:, :3, :3])], axis=1)
+
+
+def se3_from_targets(targets: np.ndarray) -> np.ndarray:
+    """Relative motions (N, 4, 4) from 6-DoF targets (N, 6) as produced by :func:`se3_targets`."""
+    motions = np.tile(np.eye(4), (len(targets), 1, 1))
+    motions[:, :3, :3] = so3_exp(targets[:, 3:])
+    motions[:, :3, 3] = targets[:, :3]
+    return motions
+
+
+def mirror_motion(motion: np.ndarray) -> np.ndarray:
+    """The motion seen in a left-right mirrored video: ``S M S`` with ``S = diag(-1, 1, 1)``."""
+    return MIRROR_X @ motion @ MIRROR_X
+
+
+def mirror_targets(targets: np.ndarray, head: str) -> np.ndarray:
+    """Mirror regression targets: planar negates the heading change; se3 negates tx, ry and rz."""
+    signs = {"planar": np.array([1.0, -1.0]), "se3": np.array([-1.0, 1.0, 1.0, 1.0, -1.0, -1.0])}[head]
+    return targets * signs

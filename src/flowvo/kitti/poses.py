@@ -1,0 +1,118 @@
+"""KITTI and TUM pose files.
+
+KITTI pose file: one line per frame, the 3x4 camera-to-world matrix [R | t] row-major (12 floats).
+Frame-indexed form (used by some evaluation tools): ``frame_index`` followed by the 12 floats; frames may
+be missing. A missing frame is simply absent from the returned :class:`Trajectory`; the metric then skips
+every segment whose first or last frame is missing (as the widely used Python port of the devkit does).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from flowvo.atomic import atomic_open
+from flowvo.errors import FlowvoError
+from flowvo.trajectory import Trajectory
+
+_ORTHONORMAL_TOLERANCE = 1e-2
+
+
+def read_kitti_poses(path: str | Path) -> Trajectory:
+    """Read a KITTI pose file in the 12-float or the frame-indexed 13-number form."""
+    path = Path(path)
+    if not path.is_file():
+        raise FlowvoError("pose file not found", path)
+    frame_ids: list[int] = []
+    matrices: list[np.ndarray] = []
+    indexed: bool | None = None
+    with open(path) as handle:
+        for line_number, line in enumerate(handle, start=1):
+            fields = line.split()
+            if not fields:
+                continue
+            try:
+                values = [float(field) for field in fields]
+            except ValueError:
+                raise FlowvoError("expected 12 numbers (or frame index + 12), found text", path, line_number) from None
+            if len(values) not in (12, 13):
+                raise FlowvoError(
+                    f"expected 12 numbers (or frame index + 12), found {len(values)}", path, line_number
+                )
+            line_indexed = len(values) == 13
+            if indexed is None:
+                indexed = line_indexed
+            elif indexed != line_indexed:
+                raise FlowvoError("mixes 12-number and frame-indexed 13-number lines", path, line_number)
+            if line_indexed:
+                if not values[0].is_integer() or values[0] < 0:
+                    raise FlowvoError(f"frame index {fields[0]} is not a non-negative integer", path, line_number)
+                frame_id = int(values[0])
+                if frame_ids and frame_id <= frame_ids[-1]:
+                    raise FlowvoError(f"frame index {frame_id} is not increasing", path, line_number)
+            else:
+                frame_id = len(frame_ids)
+            pose = np.eye(4)
+            pose[:3, :4] = np.reshape(values[-12:], (3, 4))
+            if not np.all(np.isfinite(pose)):
+                raise FlowvoError("pose contains NaN or infinity", path, line_number)
+            rotation = pose[:3, :3]
+            if np.abs(rotation @ rotation.T - np.eye(3)).max() > _ORTHONORMAL_TOLERANCE:
+                raise FlowvoError("rotation part is not orthonormal", path, line_number)
+            frame_ids.append(frame_id)
+            matrices.append(pose)
+    if not matrices:
+        raise FlowvoError("pose file is empty", path)
+    return Trajectory(np.asarray(frame_ids, dtype=np.int64), np.stack(matrices))
+
+
+def format_kitti_poses(trajectory: Trajectory, with_frame_index: bool = False) -> str:
+    """KITTI pose text, 12 floats per line (optionally preceded by the frame index)."""
+    lines = []
+    for frame_id, pose in zip(trajectory.frame_ids, trajectory.T_world_cam, strict=True):
+        numbers = " ".join(f"{value:.9e}" for value in pose[:3, :4].reshape(-1))
+        lines.append(f"{frame_id} {numbers}" if with_frame_index else numbers)
+    return "\n".join(lines) + "\n"
+
+
+def write_kitti_poses(path: str | Path, trajectory: Trajectory, with_frame_index: bool | None = None) -> None:
+    """Write a KITTI pose file atomically; the frame index is written when frames are missing."""
+    if with_frame_index is None:
+        with_frame_index = not trajectory.is_complete
+    with atomic_open(path) as handle:
+        handle.write(format_kitti_poses(trajectory, with_frame_index))
+
+
+def rotation_to_quaternion_xyzw(rotation: np.ndarray) -> np.ndarray:
+    """Unit quaternion (qx, qy, qz, qw), qw >= 0, of a 3x3 rotation matrix."""
+    m = rotation
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    if trace > 0:
+        s = 2.0 * np.sqrt(trace + 1.0)
+        q = [(m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s, 0.25 * s]
+    elif m[0, 0] > m[1, 1] and m[0, 0] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        q = [0.25 * s, (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s, (m[2, 1] - m[1, 2]) / s]
+    elif m[1, 1] > m[2, 2]:
+        s = 2.0 * np.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        q = [(m[0, 1] + m[1, 0]) / s, 0.25 * s, (m[1, 2] + m[2, 1]) / s, (m[0, 2] - m[2, 0]) / s]
+    else:
+        s = 2.0 * np.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        q = [(m[0, 2] + m[2, 0]) / s, (m[1, 2] + m[2, 1]) / s, 0.25 * s, (m[1, 0] - m[0, 1]) / s]
+    quaternion = np.asarray(q) / np.linalg.norm(q)
+    return -quaternion if quaternion[3] < 0 else quaternion
+
+
+def write_tum_trajectory(path: str | Path, trajectory: Trajectory, frame_rate_hz: float = 10.0) -> None:
+    """Write TUM format ``timestamp tx ty tz qx qy qz qw`` (timestamp = frame / rate, seconds), atomically."""
+    lines = []
+    for frame_id, pose in zip(trajectory.frame_ids, trajectory.T_world_cam, strict=True):
+        q = rotation_to_quaternion_xyzw(pose[:3, :3])
+        t = pose[:3, 3]
+        lines.append(
+            f"{frame_id / frame_rate_hz:.6f} {t[0]:.9f} {t[1]:.9f} {t[2]:.9f} "
+            f"{q[0]:.9f} {q[1]:.9f} {q[2]:.9f} {q[3]:.9f}"
+        )
+    with atomic_open(path) as handle:
+        handle.write("\n".join(lines) + "\n")

@@ -1,0 +1,139 @@
+"""Lazy reader for one sequence of the KITTI odometry layout (real or synthetic: one code path).
+
+Layout: ``<root>/sequences/NN/image_{0,1,2,3}/NNNNNN.png``, ``calib.txt``, ``times.txt`` and
+``<root>/poses/NN.txt`` (optional: the test sequences 11-21 have none).
+"""
+
+from __future__ import annotations
+
+import re
+import struct
+from functools import cached_property
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from flowvo.errors import FlowvoError
+from flowvo.kitti.calib import Calibration, read_calibration
+from flowvo.kitti.poses import read_kitti_poses
+from flowvo.trajectory import Trajectory
+
+_FRAME_NAME = re.compile(r"^(\d{6})\.png$")
+CAMERAS = ("image_0", "image_1", "image_2", "image_3")
+
+
+def png_size(path: Path) -> tuple[int, int]:
+    """(height, width) read from a PNG header without decoding the image."""
+    with open(path, "rb") as handle:
+        header = handle.read(24)
+    if len(header) < 24 or header[:8] != b"\x89PNG\r\n\x1a\n" or header[12:16] != b"IHDR":
+        raise FlowvoError("not a PNG image", path)
+    width, height = struct.unpack(">II", header[16:24])
+    return int(height), int(width)
+
+
+class KittiSequence:
+    """One odometry sequence. Frames are read on demand, in order, never all at once.
+
+    Validation on opening: the camera folder exists, frame files are 000000.png .. consecutively,
+    every image has the same size, times.txt and the pose file (when present) have one line per frame.
+    """
+
+    def __init__(self, root: str | Path, sequence: str, camera: str = "image_0") -> None:
+        self.root = Path(root)
+        self.sequence = f"{int(sequence):02d}" if str(sequence).isdigit() else str(sequence)
+        if camera not in CAMERAS:
+            raise FlowvoError(f"unknown camera {camera!r}; expected one of {', '.join(CAMERAS)}")
+        self.camera = camera
+        self.directory = self.root / "sequences" / self.sequence
+        if not self.directory.is_dir():
+            raise FlowvoError("sequence folder not found (expected <root>/sequences/NN)", self.directory)
+        self.image_paths = self._list_frames(self.directory / camera)
+        self.image_size_hw = self._check_sizes(self.image_paths)
+        self.times_s = self._read_times(self.directory / "times.txt", len(self.image_paths))
+
+    @staticmethod
+    def _list_frames(image_dir: Path) -> list[Path]:
+        if not image_dir.is_dir():
+            raise FlowvoError("image folder not found", image_dir)
+        numbered: list[tuple[int, Path]] = []
+        for path in image_dir.iterdir():
+            match = _FRAME_NAME.match(path.name)
+            if match is None:
+                if path.suffix.lower() == ".png":
+                    raise FlowvoError("frame file name must be six digits, e.g. 000000.png", path)
+                continue
+            numbered.append((int(match.group(1)), path))
+        if not numbered:
+            raise FlowvoError("no frames (expected 000000.png ...)", image_dir)
+        numbered.sort()
+        for expected, (number, path) in enumerate(numbered):
+            if number != expected:
+                raise FlowvoError(f"frame {expected:06d}.png is missing (frames must be consecutive)", path.parent)
+        return [path for _, path in numbered]
+
+    @staticmethod
+    def _check_sizes(paths: list[Path]) -> tuple[int, int]:
+        first = png_size(paths[0])
+        for path in paths[1:]:
+            size = png_size(path)
+            if size != first:
+                raise FlowvoError(f"image is {size[1]}x{size[0]}, the sequence's first is {first[1]}x{first[0]}", path)
+        return first
+
+    @staticmethod
+    def _read_times(path: Path, n_frames: int) -> np.ndarray:
+        if not path.is_file():
+            raise FlowvoError("times.txt not found", path)
+        values = []
+        with open(path) as handle:
+            for line_number, line in enumerate(handle, start=1):
+                if not line.strip():
+                    continue
+                try:
+                    values.append(float(line))
+                except ValueError:
+                    raise FlowvoError("expected one timestamp in seconds per line", path, line_number) from None
+        if len(values) != n_frames:
+            raise FlowvoError(f"has {len(values)} timestamps for {n_frames} frames", path)
+        return np.asarray(values)
+
+    def __len__(self) -> int:
+        return len(self.image_paths)
+
+    @cached_property
+    def calibration(self) -> Calibration:
+        """The sequence's calib.txt."""
+        return read_calibration(self.directory / "calib.txt")
+
+    @property
+    def pose_path(self) -> Path:
+        """Where the ground-truth poses of this sequence live (they may not exist)."""
+        return self.root / "poses" / f"{self.sequence}.txt"
+
+    @property
+    def has_poses(self) -> bool:
+        """True when ground-truth poses exist for this sequence."""
+        return self.pose_path.is_file()
+
+    @cached_property
+    def poses(self) -> Trajectory:
+        """Ground-truth camera-to-world poses, one per frame; raises when absent or of the wrong length."""
+        trajectory = read_kitti_poses(self.pose_path)
+        if len(trajectory) != len(self) or not trajectory.is_complete:
+            raise FlowvoError(f"has {len(trajectory)} poses for {len(self)} frames", self.pose_path)
+        return trajectory
+
+    def read_image(self, index: int, color: bool = False) -> np.ndarray:
+        """Frame ``index`` as uint8, (H, W) grey or (H, W, 3) BGR."""
+        path = self.image_paths[index]
+        image = cv2.imread(str(path), cv2.IMREAD_COLOR if color else cv2.IMREAD_GRAYSCALE)
+        if image is None:
+            raise FlowvoError("cannot decode image", path)
+        return image
+
+    def frames(self, color: bool = False, start: int = 0):
+        """Iterate over the frames in order, reading each lazily."""
+        for index in range(start, len(self)):
+            yield self.read_image(index, color)

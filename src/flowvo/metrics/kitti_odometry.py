@@ -1,0 +1,149 @@
+"""The KITTI odometry metric, a faithful port of the official devkit ``evaluate_odometry.cpp``.
+
+For every 10th first frame and each sub-path length L in 100..800 m, the last frame is the first whose
+ground-truth path distance exceeds ``dist[first] + L``; the segment error is
+``E = inv(inv(P[f]) P[l]) (inv(G[f]) G[l])``, its rotation error ``acos(clamp((trace(R_E) - 1) / 2))`` and
+translation error ``||t_E||``, both divided by L; the segment speed is ``L / (0.1 * (l - f + 1))`` m/s.
+Averages run over all segments (of one sequence, or of several sequences pooled).
+
+Units: translation error as a fraction (x100 for %), rotation error in rad/m (converted in summaries to
+deg/m and deg/100m, always named so). Missing predicted frames: a segment is skipped when its first or
+last frame has no prediction; distances always come from the complete ground truth.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flowvo.geometry import invert_se3
+from flowvo.trajectory import Trajectory
+
+SEGMENT_LENGTHS_M = (100.0, 200.0, 300.0, 400.0, 500.0, 600.0, 700.0, 800.0)
+STEP_FRAMES = 10
+FRAME_PERIOD_S = 0.1
+SPEED_BINS_MPS = tuple(float(s) for s in range(2, 25, 2))
+SPEED_BIN_HALF_WIDTH_MPS = 2.0
+MIN_SAMPLES_PER_BIN = 3
+
+
+@dataclass(frozen=True)
+class SegmentErrors:
+    """Per-segment errors (M,) each: first frame, rotation error rad/m, translation error (fraction),
+    segment length m, speed m/s."""
+
+    first_frame: np.ndarray
+    r_err_rad_per_m: np.ndarray
+    t_err: np.ndarray
+    length_m: np.ndarray
+    speed_mps: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.first_frame)
+
+    @staticmethod
+    def concatenate(parts: list[SegmentErrors]) -> SegmentErrors:
+        """Pool the segments of several sequences (for the multi-sequence average)."""
+        fields = ("first_frame", "r_err_rad_per_m", "t_err", "length_m", "speed_mps")
+        return SegmentErrors(*(np.concatenate([getattr(p, f) for p in parts]) for f in fields))
+
+
+def trajectory_distances(positions_m: np.ndarray) -> np.ndarray:
+    """Cumulative path length (N,) in metres along positions (N, 3), starting at 0."""
+    steps = np.linalg.norm(np.diff(positions_m, axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
+def last_frame_from_segment_length(distances_m: np.ndarray, first: int, length_m: float) -> int:
+    """Index of the first frame whose distance exceeds ``distances_m[first] + length_m``, or -1."""
+    beyond = np.flatnonzero(distances_m[first:] > distances_m[first] + length_m)
+    return int(first + beyond[0]) if len(beyond) else -1
+
+
+def rotation_error_rad(pose_error: np.ndarray) -> np.ndarray:
+    """Rotation angle (rad) of error transforms (..., 4, 4), as the devkit computes it."""
+    d = 0.5 * (pose_error[..., 0, 0] + pose_error[..., 1, 1] + pose_error[..., 2, 2] - 1.0)
+    return np.arccos(np.clip(d, -1.0, 1.0))
+
+
+def translation_error_m(pose_error: np.ndarray) -> np.ndarray:
+    """Translation norm (m) of error transforms (..., 4, 4)."""
+    return np.linalg.norm(pose_error[..., :3, 3], axis=-1)
+
+
+def sequence_segment_errors(gt: Trajectory, pred: Trajectory) -> SegmentErrors:
+    """All devkit segment errors of one sequence. ``gt`` must be complete (frames 0..N-1)."""
+    if not gt.is_complete:
+        raise ValueError("ground truth must contain every frame")
+    distances = trajectory_distances(gt.positions)
+    n_frames = len(gt)
+    pred_index = np.full(n_frames, -1)
+    present = pred.frame_ids[pred.frame_ids < n_frames]
+    pred_index[present] = np.arange(len(present))
+    firsts, lasts, lengths = [], [], []
+    for first in range(0, n_frames, STEP_FRAMES):
+        for length in SEGMENT_LENGTHS_M:
+            last = last_frame_from_segment_length(distances, first, length)
+            if last == -1 or pred_index[first] < 0 or pred_index[last] < 0:
+                continue
+            firsts.append(first)
+            lasts.append(last)
+            lengths.append(length)
+    first_idx = np.asarray(firsts, dtype=np.int64)
+    last_idx = np.asarray(lasts, dtype=np.int64)
+    lengths_m = np.asarray(lengths, dtype=np.float64)
+    G, P = gt.T_world_cam, pred.T_world_cam
+    delta_gt = invert_se3(G[first_idx]) @ G[last_idx]
+    delta_pred = invert_se3(P[pred_index[first_idx]]) @ P[pred_index[last_idx]]
+    pose_error = np.linalg.inv(delta_pred) @ delta_gt
+    return SegmentErrors(
+        first_frame=first_idx,
+        r_err_rad_per_m=rotation_error_rad(pose_error) / np.maximum(lengths_m, 1e-12),
+        t_err=translation_error_m(pose_error) / np.maximum(lengths_m, 1e-12),
+        length_m=lengths_m,
+        speed_mps=lengths_m / (FRAME_PERIOD_S * (last_idx - first_idx + 1)),
+    )
+
+
+def _binned(errors: SegmentErrors, mask_per_bin: list[np.ndarray], centres: tuple[float, ...], key: str) -> list:
+    rows = []
+    for centre, mask in zip(centres, mask_per_bin, strict=True):
+        count = int(mask.sum())
+        if count < MIN_SAMPLES_PER_BIN:
+            continue
+        r = float(errors.r_err_rad_per_m[mask].mean())
+        rows.append(
+            {
+                key: centre,
+                "t_err_percent": 100.0 * float(errors.t_err[mask].mean()),
+                "r_err_deg_per_m": float(np.degrees(r)),
+                "r_err_deg_per_100m": 100.0 * float(np.degrees(r)),
+                "segments": count,
+            }
+        )
+    return rows
+
+
+def summarize(errors: SegmentErrors) -> dict:
+    """Average errors and the per-length and per-speed curves, with units in every key."""
+    if len(errors) == 0:
+        raise ValueError("no segment of 100..800 m: the trajectory is shorter than 100 m or lacks frames")
+    r_mean = float(errors.r_err_rad_per_m.mean())
+    per_length = _binned(
+        errors, [np.abs(errors.length_m - L) < 1.0 for L in SEGMENT_LENGTHS_M], SEGMENT_LENGTHS_M, "length_m"
+    )
+    per_speed = _binned(
+        errors,
+        [np.abs(errors.speed_mps - s) < SPEED_BIN_HALF_WIDTH_MPS for s in SPEED_BINS_MPS],
+        SPEED_BINS_MPS,
+        "speed_mps",
+    )
+    return {
+        "t_err_percent": 100.0 * float(errors.t_err.mean()),
+        "r_err_deg_per_m": float(np.degrees(r_mean)),
+        "r_err_deg_per_100m": 100.0 * float(np.degrees(r_mean)),
+        "segments": len(errors),
+        "per_length": per_length,
+        "per_speed": per_speed,
+    }

@@ -1,0 +1,86 @@
+"""Evaluation figures as PNG: x-z paths, errors vs path length and speed, per-frame error histograms."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from flowvo.atomic import atomic_path  # noqa: E402
+
+
+def _save(figure: plt.Figure, path: Path) -> Path:
+    with atomic_path(path) as tmp:
+        figure.savefig(tmp, dpi=110, bbox_inches="tight", format="png")
+    plt.close(figure)
+    return path
+
+
+def plot_paths(paths: dict[str, np.ndarray], gt_positions: np.ndarray, title: str, path: Path) -> Path:
+    """Bird's-eye x-z plot (metres) of ground truth and predicted camera centres, start marked."""
+    figure, axis = plt.subplots(figsize=(6.5, 6.5))
+    axis.plot(gt_positions[:, 0], gt_positions[:, 2], "k-", lw=2, label="ground truth")
+    for name, positions in paths.items():
+        axis.plot(positions[:, 0], positions[:, 2], lw=1.5, label=name)
+    axis.plot(gt_positions[0, 0], gt_positions[0, 2], "ks", ms=9, label="start")
+    axis.set_xlabel("x [m]")
+    axis.set_ylabel("z [m]")
+    axis.set_aspect("equal", adjustable="datalim")
+    axis.grid(alpha=0.3)
+    axis.legend(loc="best")
+    axis.set_title(title)
+    return _save(figure, path)
+
+
+def plot_error_curves(curves: dict[str, list[dict]], key: str, xlabel: str, stem: str, out: Path) -> list[Path]:
+    """t_err (%) and r_err (deg/100m) against ``key`` (length_m or speed_mps), one line per method."""
+    written = []
+    axes_labels = (("t_err_percent", "translation error [%]"), ("r_err_deg_per_100m", "rotation error [deg/100m]"))
+    for metric, ylabel in axes_labels:
+        figure, axis = plt.subplots(figsize=(6, 4))
+        for name, rows in curves.items():
+            if rows:
+                axis.plot([r[key] for r in rows], [r[metric] for r in rows], "o-", label=name)
+        axis.set_xlabel(xlabel)
+        axis.set_ylabel(ylabel)
+        axis.grid(alpha=0.3)
+        axis.set_ylim(bottom=0)
+        axis.legend(loc="best")
+        short = "t_err" if metric.startswith("t") else "r_err"
+        written.append(_save(figure, out / f"{short}_vs_{stem}.png"))
+    return written
+
+
+def plot_frame_error_histograms(frame_errors: dict[str, dict[str, np.ndarray]], out: Path) -> Path:
+    """Histograms of per-frame translation error (m) and rotation error (deg), one series per method."""
+    figure, axes = plt.subplots(1, 2, figsize=(10, 3.8))
+    for name, errors in frame_errors.items():
+        axes[0].hist(errors["translation_error_m"], bins=50, alpha=0.6, label=name)
+        axes[1].hist(errors["rotation_error_deg"], bins=50, alpha=0.6, label=name)
+    axes[0].set_xlabel("per-frame translation error [m]")
+    axes[1].set_xlabel("per-frame rotation error [deg]")
+    for axis in axes:
+        axis.set_ylabel("frames")
+        axis.legend(loc="best")
+        axis.grid(alpha=0.3)
+    return _save(figure, out / "frame_error_histograms.png")
+
+
+def save_evaluation_plots(evaluation, out: Path, name: str = "prediction") -> list[Path]:
+    """All figures of one evaluation into ``out``."""
+    written = [
+        plot_paths(
+            {name: evaluation.pred.positions},
+            evaluation.gt.positions,
+            "x-z path (bird's-eye view)",
+            out / "path_xz.png",
+        )
+    ]
+    written += plot_error_curves({name: evaluation.metrics["per_length"]}, "length_m", "path length [m]", "length", out)
+    written += plot_error_curves({name: evaluation.metrics["per_speed"]}, "speed_mps", "speed [m/s]", "speed", out)
+    written.append(plot_frame_error_histograms({name: evaluation.frame_errors}, out))
+    return written

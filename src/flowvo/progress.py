@@ -1,0 +1,24 @@
+"""The one progress-bar helper: library code reports progress only through here, so it can be silenced."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Iterator
+from typing import TypeVar
+
+from tqdm import tqdm
+
+T = TypeVar("T")
+
+_enabled = os.environ.get("FLOWVO_PROGRESS", "1") != "0"
+
+
+def set_progress_enabled(enabled: bool) -> None:
+    """Turn all flowvo progress bars on or off (the CLI's --quiet turns them off)."""
+    global _enabled
+    _enabled = enabled
+
+
+def progress(items: Iterable[T], desc: str, total: int | None = None, unit: str = "it") -> Iterator[T]:
+    """Iterate over ``items`` with a tqdm bar on stderr when progress is enabled."""
+    return iter(tqdm(items, desc=desc, total=total, unit=unit, disable=not _enabled, leave=False))

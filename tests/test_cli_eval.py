@@ -1,0 +1,41 @@
+import json
+
+from flowvo.cli import build_parser, main
+
+
+def test_every_subcommand_has_help(capsys):
+    parser = build_parser()
+    commands = parser._subparsers._group_actions[0].choices
+    assert "eval" in commands
+    for name, sub in commands.items():
+        assert sub.format_help().startswith(f"usage: flowvo {name}")
+
+
+def test_eval_writes_metrics_and_plots(kitti_poses_dir, example_results_dir, tmp_path, capsys):
+    code = main(
+        [
+            "eval",
+            "--gt", str(kitti_poses_dir / "09.txt"),
+            "--pred", str(example_results_dir / "example_1" / "09.txt"),
+            "--out", str(tmp_path),
+        ]
+    )
+    assert code == 0
+    printed = capsys.readouterr().out
+    assert "2.6068 %" in printed and "deg/m" in printed and "deg/100m" in printed
+    metrics = json.loads((tmp_path / "metrics.json").read_text())
+    for key in ("t_err_percent", "r_err_deg_per_m", "r_err_deg_per_100m", "per_length", "per_speed", "ate_rmse_m"):
+        assert key in metrics
+    for png in ("path_xz.png", "t_err_vs_length.png", "r_err_vs_speed.png", "frame_error_histograms.png"):
+        assert (tmp_path / png).read_bytes()[:4] == b"\x89PNG"
+    assert not list(tmp_path.glob(".*tmp"))
+
+
+def test_bad_pose_file_gives_one_line_error_and_exit_2(tmp_path, capsys):
+    (tmp_path / "bad.txt").write_text("1 2 3\n")
+    bad = str(tmp_path / "bad.txt")
+    code = main(["eval", "--gt", bad, "--pred", bad, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert err.count("\n") == 0 and "bad.txt:1: expected 12 numbers" in err
+    assert not (tmp_path / "o").exists()
