@@ -33,7 +33,33 @@ def _add_eval(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_eval)
 
 
-SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_eval]
+def _cmd_synth(args: argparse.Namespace) -> int:
+    from flowvo.synth.dataset import synthesize
+
+    folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
+                         args.scene, args.gt_flow, args.workers)
+    for folder in folders:
+        print(f"wrote {folder} (synthetic)")
+    return 0
+
+
+def _add_synth(sub: argparse._SubParsersAction) -> None:
+    from flowvo.synth.world import SCENE_TYPES
+
+    p = sub.add_parser("synth", help="render synthetic driving sequences in the KITTI layout (exact GT)")
+    p.add_argument("--out", required=True, help="dataset root to write (ROOT/sequences/NN, ROOT/poses)")
+    p.add_argument("--sequences", nargs="+", default=["00"], help="sequence names, e.g. 00 01")
+    p.add_argument("--frames", type=int, help="frames per sequence (generated default 400; truncates replays)")
+    p.add_argument("--trajectory", help="replay poses: a KITTI pose file, or a folder holding NN.txt per sequence")
+    p.add_argument("--seed", type=int, default=0, help="world and path seed")
+    p.add_argument("--scale", type=float, default=1.0, help="image scale: 1.0 = 1241x376, 0.5 = 620x188")
+    p.add_argument("--scene", choices=SCENE_TYPES, help="one scene type throughout (default: varied stretches)")
+    p.add_argument("--gt-flow", action="store_true", help="also write true forward flow to flow_gt/NNNNNN.npy")
+    p.add_argument("--workers", type=int, help="render processes (default: all cores, at most 8)")
+    p.set_defaults(func=_cmd_synth)
+
+
+SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_eval, _add_synth]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -44,13 +70,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for add in SUBCOMMANDS:
         add(sub)
+    for command in sub.choices.values():
+        command.add_argument("-q", "--quiet", dest="quiet_here", action="store_true", help="no progress bars")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point: returns the exit code (2 for bad input, with one line on stderr)."""
     args = build_parser().parse_args(argv)
-    if args.quiet:
+    if args.quiet or args.quiet_here:
         set_progress_enabled(False)
     try:
         return args.func(args)

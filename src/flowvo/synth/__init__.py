@@ -1,0 +1,1 @@
+"""Synthetic driving sequences in the KITTI odometry layout, with exact ground-truth poses and flow."""

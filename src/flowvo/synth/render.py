@@ -1,0 +1,221 @@
+"""Vectorised ray casting of a :class:`World` through a pinhole camera.
+
+Geometry pass: the terrain by fixed-point iteration of the ray-heightfield intersection, boxes as quads
+rasterised inside their projected bounding boxes with a z-buffer. Shading pass: one texture lookup per
+material for all its pixels. Depth is the z coordinate in the camera frame (metres), ``inf`` for the sky.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flowvo.synth.textures import Texture
+from flowvo.synth.world import ROAD_HALF_WIDTH_M, SCENE_BRIGHTNESS, SCENE_TYPES, World
+
+MAX_DEPTH_M = 400.0
+NEAR_M = 0.3
+OBJECT_RANGE_M = 300.0
+TERRAIN_ITERATIONS = 6
+SUN_DIRECTION = np.array([0.45, -0.8, 0.4]) / np.linalg.norm([0.45, -0.8, 0.4])  # towards the sun, y down
+MATERIALS = ("sky", "asphalt", "grass", "facade", "brick", "foliage", "bark", "hills")
+
+
+@dataclass
+class _Surface:
+    """Per-pixel results of the geometry pass (flat arrays of H*W)."""
+
+    depth: np.ndarray
+    material: np.ndarray
+    s_m: np.ndarray
+    t_m: np.ndarray
+    footprint_m: np.ndarray
+    shade: np.ndarray
+
+
+def pixel_rays(K: np.ndarray, size_hw: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised image coordinates (x, y), each (H*W,), so that a camera ray is (x, y, 1)."""
+    h, w = size_hw
+    v, u = np.mgrid[0:h, 0:w].astype(np.float64)
+    return ((u - K[0, 2]) / K[0, 0]).ravel(), ((v - K[1, 2]) / K[1, 1]).ravel()
+
+
+def render(world: World, textures: dict[str, Texture], T_world_cam: np.ndarray, K: np.ndarray,
+           size_hw: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Grey image (H, W) uint8 and depth (H, W) float32 (camera z, metres, inf = sky) of one view."""
+    xn, yn = pixel_rays(K, size_hw)
+    R, origin = T_world_cam[:3, :3], T_world_cam[:3, 3]
+    directions = R @ np.stack([xn, yn, np.ones_like(xn)])  # world ray per unit camera depth, (3, P)
+    surface = _terrain(world, origin, directions, K[0, 0])
+    for face in _visible_faces(world, T_world_cam):
+        _rasterise_quad(surface, face, R, origin, xn, yn, size_hw, K)
+    intensity = _shade(world, textures, surface, origin, directions)
+    image = np.clip(intensity * 255.0 + 0.5, 0, 255).astype(np.uint8).reshape(size_hw)
+    return image, surface.depth.reshape(size_hw).astype(np.float32)
+
+
+def _terrain(world: World, origin: np.ndarray, d: np.ndarray, focal_px: float) -> _Surface:
+    n = d.shape[1]
+    ground_here = world.lookup(world.ground_y, origin[:1], origin[2:3])[0]
+    candidates = np.flatnonzero(d[1] > 1e-4)
+    dc = d[:, candidates].astype(np.float32)
+    t = ((ground_here - origin[1]) / dc[1]).astype(np.float32)
+    for _ in range(TERRAIN_ITERATIONS):
+        np.minimum(t, MAX_DEPTH_M, out=t)
+        g = world.lookup(world.ground_y, origin[0] + t * dc[0], origin[2] + t * dc[2])
+        t = (g - origin[1]) / dc[1]
+    x = origin[0] + t * dc[0]
+    z = origin[2] + t * dc[2]
+    g = world.lookup(world.ground_y, x, z)
+    ok = (t > 0) & (t < MAX_DEPTH_M) & (np.abs(origin[1] + t * dc[1] - g) < 0.05 + 0.002 * t)
+    hit, t, x, z, dc = candidates[ok], t[ok], x[ok], z[ok], dc[:, ok]
+    lateral = world.lookup(world.lateral_m, x, z)
+    along = world.lookup(world.along_m, x, z)
+    scene = world.lookup(world.scene_index, x, z, nearest=True).astype(int)
+    half_road = np.asarray([ROAD_HALF_WIDTH_M[k] for k in SCENE_TYPES], np.float32)[scene]
+    on_road = np.abs(lateral) < half_road
+    ray_norm = np.linalg.norm(dc, axis=0)
+    grazing = dc[1] / ray_norm
+    shade = np.asarray([SCENE_BRIGHTNESS[k] for k in SCENE_TYPES], np.float32)[scene]
+    shade = np.where(on_road & _lane_marking(lateral, along, half_road), shade * 2.3, shade)
+    surface = _Surface(
+        depth=np.full(n, np.inf),
+        material=np.zeros(n, np.int8),
+        s_m=np.zeros(n, np.float32),
+        t_m=np.zeros(n, np.float32),
+        footprint_m=np.ones(n, np.float32),
+        shade=np.ones(n, np.float32),
+    )
+    surface.depth[hit] = t
+    surface.material[hit] = np.where(on_road, MATERIALS.index("asphalt"), MATERIALS.index("grass"))
+    # road coordinates follow the road (along, lateral); grass uses world x, z
+    surface.s_m[hit] = np.where(on_road, along, x)
+    surface.t_m[hit] = np.where(on_road, lateral, z)
+    surface.footprint_m[hit] = t * ray_norm / focal_px / np.sqrt(np.maximum(grazing, 0.02))
+    surface.shade[hit] = shade
+    return surface
+
+
+def _lane_marking(lateral: np.ndarray, along: np.ndarray, half_road: np.ndarray) -> np.ndarray:
+    """White lines: dashed centre line (3 m of every 9 m) 1.8 m left of the path, solid edge lines."""
+    centre = (np.abs(lateral + 1.8) < 0.08) & (np.mod(along, 9.0) < 3.0)
+    edge = np.abs(np.abs(lateral) - (half_road - 0.3)) < 0.1
+    return centre | edge
+
+
+def _visible_faces(world: World, T_world_cam: np.ndarray):
+    """Quads (corner, edge_a, edge_b, normal, material, offset, brightness) of boxes near the camera."""
+    boxes = world.boxes
+    if len(boxes) == 0:
+        return
+    origin = T_world_cam[:3, 3]
+    forward = T_world_cam[:3, 2]
+    rel = boxes.centre_xz - origin[[0, 2]]
+    distance = np.hypot(rel[:, 0], rel[:, 1])
+    extent = np.hypot(boxes.half_along, boxes.half_across)
+    ahead = rel @ forward[[0, 2]] > -extent - 1.0
+    for i in np.flatnonzero((distance < OBJECT_RANGE_M + extent) & ahead):
+        f = np.array([np.sin(boxes.yaw[i]), 0.0, np.cos(boxes.yaw[i])])
+        r = np.array([f[2], 0.0, -f[0]])
+        up = np.array([0.0, -1.0, 0.0])
+        base = np.array([boxes.centre_xz[i, 0], boxes.base_y[i], boxes.centre_xz[i, 1]])
+        a, c, h = boxes.half_along[i], boxes.half_across[i], boxes.height[i]
+        material = MATERIALS.index(boxes.texture[i])
+        offset, bright = boxes.texture_offset[i], boxes.brightness[i]
+        sides = [(f, r, a, c), (-f, -r, a, c), (r, -f, c, a), (-r, f, c, a)]
+        for normal, tangent, half_normal, half_tangent in sides:
+            corner = base + normal * half_normal - tangent * half_tangent
+            if normal @ (origin - corner) > 0:
+                yield corner, tangent * 2 * half_tangent, up * h, normal, material, offset, bright
+        top_corner = base + up * h - f * a - r * c
+        if up @ (origin - top_corner) > 0:
+            yield top_corner, f * 2 * a, r * 2 * c, up, material, offset, bright
+
+
+def _project_bbox(points_cam: np.ndarray, K: np.ndarray, size_hw: tuple[int, int]):
+    """Pixel bounding box (u0, u1, v0, v1) of a convex polygon (M, 3) clipped at the near plane."""
+    clipped = []
+    for i in range(len(points_cam)):
+        p, q = points_cam[i], points_cam[(i + 1) % len(points_cam)]
+        if p[2] >= NEAR_M:
+            clipped.append(p)
+        if (p[2] >= NEAR_M) != (q[2] >= NEAR_M):
+            clipped.append(p + (q - p) * (NEAR_M - p[2]) / (q[2] - p[2]))
+    if not clipped:
+        return None
+    pts = np.array(clipped)
+    u = K[0, 0] * pts[:, 0] / pts[:, 2] + K[0, 2]
+    v = K[1, 1] * pts[:, 1] / pts[:, 2] + K[1, 2]
+    h, w = size_hw
+    u0, u1 = max(int(np.floor(u.min())), 0), min(int(np.ceil(u.max())) + 1, w)
+    v0, v1 = max(int(np.floor(v.min())), 0), min(int(np.ceil(v.max())) + 1, h)
+    if u0 >= u1 or v0 >= v1:
+        return None
+    return u0, u1, v0, v1
+
+
+def _rasterise_quad(surface: _Surface, face, R, origin, xn, yn, size_hw, K) -> None:
+    corner, edge_a, edge_b, normal, material, offset, bright = face
+    corners_world = np.stack([corner, corner + edge_a, corner + edge_a + edge_b, corner + edge_b])
+    corners_cam = (corners_world - origin) @ R
+    box = _project_bbox(corners_cam, K, size_hw)
+    if box is None:
+        return
+    u0, u1, v0, v1 = box
+    w = size_hw[1]
+    index = (np.arange(v0, v1)[:, None] * w + np.arange(u0, u1)[None, :]).ravel()
+    x, y = xn[index], yn[index]
+    n_cam = R.T @ normal
+    p_cam = R.T @ (corner - origin)
+    denominator = n_cam[0] * x + n_cam[1] * y + n_cam[2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = (n_cam @ p_cam) / denominator
+    a_cam, b_cam = R.T @ edge_a, R.T @ edge_b
+    la, lb = np.linalg.norm(edge_a), np.linalg.norm(edge_b)
+    rel_x, rel_y, rel_z = z * x - p_cam[0], z * y - p_cam[1], z - p_cam[2]
+    s = (a_cam[0] * rel_x + a_cam[1] * rel_y + a_cam[2] * rel_z) / la
+    t = (b_cam[0] * rel_x + b_cam[1] * rel_y + b_cam[2] * rel_z) / lb
+    inside = (z > NEAR_M) & (s >= 0) & (s <= la) & (t >= 0) & (t <= lb) & (z < surface.depth[index])
+    if not inside.any():
+        return
+    index, z, s, t = index[inside], z[inside], s[inside], t[inside]
+    ray_norm = np.sqrt(x[inside] ** 2 + y[inside] ** 2 + 1.0)
+    cos_incidence = np.abs(denominator[inside]) / ray_norm
+    surface.depth[index] = z
+    surface.material[index] = material
+    surface.s_m[index] = s + offset
+    surface.t_m[index] = t
+    surface.footprint_m[index] = z * ray_norm / K[0, 0] / np.sqrt(np.maximum(cos_incidence, 0.02))
+    surface.shade[index] = bright * (0.6 + 0.4 * max(float(normal @ SUN_DIRECTION), 0.0))
+
+
+def _shade(world: World, textures: dict[str, Texture], surface: _Surface, origin, d) -> np.ndarray:
+    intensity = np.zeros(surface.depth.shape, np.float32)
+    for material_index, name in enumerate(MATERIALS):
+        pixels = np.flatnonzero(surface.material == material_index)
+        if len(pixels) == 0:
+            continue
+        if name == "sky":
+            intensity[pixels] = _backdrop(world, textures, d[:, pixels])
+            continue
+        sampled = textures[name].sample(surface.s_m[pixels], surface.t_m[pixels], surface.footprint_m[pixels])
+        intensity[pixels] = sampled * surface.shade[pixels]
+    return np.clip(intensity, 0.0, 1.0)
+
+
+def _backdrop(world: World, textures: dict[str, Texture], d: np.ndarray) -> np.ndarray:
+    """Scenery at infinity: a hill silhouette and cloudy sky, a function of ray direction only."""
+    azimuth = np.arctan2(d[0], d[2])
+    elevation = np.arctan2(-d[1], np.hypot(d[0], d[2]))
+    phases = np.random.default_rng(world.seed + 11).uniform(0, 2 * np.pi, 4)
+    ridge = 0.035 + 0.02 * np.sin(3 * azimuth + phases[0]) + 0.012 * np.sin(7 * azimuth + phases[1]) \
+        + 0.006 * np.sin(17 * azimuth + phases[2])
+    footprint = np.full(azimuth.shape, 1.0 / 718.0, np.float32)
+    out = np.empty(azimuth.shape, np.float32)
+    hill = elevation < ridge
+    sky = ~hill
+    out[hill] = textures["hills"].sample(azimuth[hill] * 4.0, elevation[hill] * 4.0, footprint[hill] * 4.0)
+    brightening = 0.95 + 0.5 * np.clip(elevation[sky], 0, 0.3)
+    out[sky] = textures["sky"].sample(azimuth[sky] * 3.0, elevation[sky] * 3.0, footprint[sky] * 3.0) * brightening
+    return out

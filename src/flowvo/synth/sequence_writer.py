@@ -1,0 +1,121 @@
+"""Write synthetic sequences in the KITTI odometry layout (frames, calib, times, poses, optional GT flow).
+
+Every file is written atomically; frames already on disk are kept, so an interrupted run resumes.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from flowvo.atomic import atomic_path, write_text_atomic
+from flowvo.geometry import invert_se3
+from flowvo.kitti.calib import Calibration, format_calibration
+from flowvo.kitti.poses import write_kitti_poses
+from flowvo.progress import progress
+from flowvo.projection import flow_from_depth, occlusion_mask
+from flowvo.synth.render import render
+from flowvo.synth.textures import make_textures
+from flowvo.synth.world import World, build_world
+from flowvo.trajectory import Trajectory
+
+KITTI_SIZE_HW = (376, 1241)
+KITTI_FOCAL_PX = 718.856
+KITTI_PRINCIPAL_PX = (607.1928, 185.2157)
+STEREO_BASELINE_M = 0.54
+
+
+@dataclass(frozen=True)
+class SynthSpec:
+    """What to render for one sequence: its poses, the world seed and scene, and the image scale."""
+
+    T_world_cam: np.ndarray
+    seed: int
+    scale: float = 1.0
+    scene: str | None = None
+    gt_flow: bool = False
+
+
+def intrinsics(scale: float) -> tuple[np.ndarray, tuple[int, int]]:
+    """KITTI's intrinsics K (3, 3) and image size (H, W), scaled."""
+    K = np.array([[KITTI_FOCAL_PX, 0, KITTI_PRINCIPAL_PX[0]], [0, KITTI_FOCAL_PX, KITTI_PRINCIPAL_PX[1]], [0, 0, 1]])
+    K[:2] *= scale
+    size = (int(round(KITTI_SIZE_HW[0] * scale)), int(round(KITTI_SIZE_HW[1] * scale)))
+    return K, size
+
+
+def kitti_calibration(K: np.ndarray) -> Calibration:
+    """P0..P3 as in KITTI: P1 (right grey) at the 0.54 m baseline; colour cameras share the grey ones."""
+    P0 = np.hstack([K, np.zeros((3, 1))])
+    P1 = P0.copy()
+    P1[0, 3] = -K[0, 0] * STEREO_BASELINE_M
+    return Calibration({"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()})
+
+
+_worker_state: dict = {}
+
+
+def _init_worker(world: World, seed: int, K: np.ndarray, size_hw: tuple[int, int]) -> None:
+    _worker_state.update(world=world, textures=make_textures(seed), K=K, size=size_hw)
+
+
+def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    state = _worker_state
+    return render(state["world"], state["textures"], pose, state["K"], state["size"])
+
+
+def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | None = None) -> Path:
+    """Render one sequence into ``root`` and return its folder. Existing frames are reused."""
+    root = Path(root)
+    directory = root / "sequences" / name
+    image_dir = directory / "image_0"
+    image_dir.mkdir(parents=True, exist_ok=True)
+    K, size = intrinsics(spec.scale)
+    write_text_atomic(directory / "calib.txt", format_calibration(kitti_calibration(K)))
+    write_text_atomic(directory / "times.txt", "".join(f"{0.1 * i:.6e}\n" for i in range(len(spec.T_world_cam))))
+    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(spec.T_world_cam))
+    world = build_world(spec.T_world_cam, spec.seed, spec.scene)
+    todo = [i for i in range(len(spec.T_world_cam)) if not (image_dir / f"{i:06d}.png").exists()]
+    if spec.gt_flow:
+        todo = list(range(len(spec.T_world_cam)))  # depth of every frame is needed for the flow
+    workers = workers or max(1, min(os.cpu_count() or 1, 8))
+    frames = [spec.T_world_cam[i] for i in todo]
+    with ExitStack() as stack:
+        if workers > 1 and len(frames) > 4:
+            # spawn, not fork: a forked child inherits OpenCV's thread pool in a locked state and hangs
+            context = multiprocessing.get_context("spawn")
+            pool = stack.enter_context(context.Pool(workers, _init_worker, (world, spec.seed, K, size)))
+            results = pool.imap(_render_one, frames, chunksize=2)
+        else:
+            _init_worker(world, spec.seed, K, size)
+            results = map(_render_one, frames)
+        previous = None
+        for i, (image, depth) in progress(zip(todo, results, strict=True), f"render {name}", len(todo), "frame"):
+            with atomic_path(image_dir / f"{i:06d}.png") as tmp:
+                cv2.imwrite(str(tmp), image)
+            if spec.gt_flow:
+                if previous is not None:
+                    _write_gt_flow(directory, i - 1, previous, depth, spec.T_world_cam, K)
+                previous = depth
+    return directory
+
+
+def _write_gt_flow(directory: Path, index: int, depth: np.ndarray, depth_next: np.ndarray,
+                   T_world_cam: np.ndarray, K: np.ndarray) -> None:
+    T_next_cur = invert_se3(T_world_cam[index + 1]) @ T_world_cam[index]
+    flow, next_depth = flow_from_depth(depth, K, T_next_cur)
+    occluded = occlusion_mask(flow, next_depth, depth_next)
+    flow_dir = directory / "flow_gt"
+    flow_dir.mkdir(exist_ok=True)
+    with atomic_path(flow_dir / f"{index:06d}.npy") as tmp:
+        np.save(tmp, flow)
+    with atomic_path(flow_dir / f"{index:06d}_occluded.png") as tmp:
+        cv2.imwrite(str(tmp), occluded.astype(np.uint8) * 255)
+    with atomic_path(flow_dir / f"{index:06d}_depth.npy") as tmp:
+        np.save(tmp, depth.astype(np.float16))
