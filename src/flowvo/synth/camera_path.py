@@ -93,7 +93,8 @@ def generate_path(n_frames: int, seed: int, config: PathConfig | None = None) ->
     arclength = np.cumsum(step_m)
     # heading is the integral of curvature over arclength, evaluated finely for accuracy
     fine_s = np.linspace(0.0, max(arclength[-1], 1.0), 20 * n_frames + 2)
-    fine_yaw = np.concatenate([[0.0], np.cumsum(0.5 * (curvature_at(fine_s[1:]) + curvature_at(fine_s[:-1])) * np.diff(fine_s))])
+    mean_curvature = 0.5 * (curvature_at(fine_s[1:]) + curvature_at(fine_s[:-1]))
+    fine_yaw = np.concatenate([[0.0], np.cumsum(mean_curvature * np.diff(fine_s))])
     yaw = np.interp(arclength, fine_s, fine_yaw)
     mid_yaw = np.interp(arclength - step_m / 2, fine_s, fine_yaw)
     x = np.cumsum(step_m * np.sin(mid_yaw))

@@ -174,7 +174,8 @@ def _place_objects(world, along, path, tangent, starts, kinds, rng) -> Boxes:
                     records += _tree(path, tangent, along, s, side, half_road + rng.uniform(4, 30), rng)
                     s += rng.uniform(15, 60)
                     continue
-            records.append(_box_at(path, tangent, along, s + length / 2, side * offset, length, depth, height, texture, rng))
+            centre_s, lateral = s + length / 2, side * offset
+            records.append(_box_at(path, tangent, along, centre_s, lateral, length, depth, height, texture, rng))
             s += length + gap
     records = [_seat_on_ground(world, r) for r in records if _clear_of_road(world, r)]
     if not records:
