@@ -6,6 +6,8 @@ import argparse
 import sys
 from collections.abc import Callable
 
+import numpy as np
+
 from flowvo import __version__
 from flowvo.errors import FlowvoError
 from flowvo.progress import set_progress_enabled
@@ -59,7 +61,46 @@ def _add_synth(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_synth)
 
 
-SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_eval, _add_synth]
+def _cmd_flow(args: argparse.Namespace) -> int:
+    from flowvo.flow.cache import FlowCache
+    from flowvo.flow.registry import create_estimator
+    from flowvo.flow.visualize import save_flow_pictures
+    from flowvo.kitti.sequence import KittiSequence
+
+    sequence = KittiSequence(args.data, args.sequence)
+    estimator = create_estimator(args.method, args.flow_weights)
+    cache = FlowCache(args.cache or f"{args.data}/flow_cache", sequence, args.method, args.scale, estimator.params())
+    timing = cache.compute(estimator)
+    if timing["pairs"]:
+        print(f"computed {timing['pairs']} pairs: {timing['flow_s'] / timing['pairs']:.4f} s/pair flow, "
+              f"{timing['read_s'] / timing['pairs']:.4f} s/pair image read")
+    h, w = cache.flow_size_hw
+    print(f"flow cache complete: {cache.directory} ({cache.n_pairs} pairs, {w}x{h})")
+    if args.visualize:
+        pairs = range(0, cache.n_pairs, args.every)
+        magnitude = max(float(np.percentile(np.hypot(*cache.read(p).transpose(2, 0, 1)), 99)) for p in pairs[:20])
+        written = save_flow_pictures(((p, cache.read(p)) for p in pairs), args.visualize, magnitude, args.gif)
+        print(f"wrote {len(written)} pictures to {args.visualize} (colour wheel, max {magnitude:.1f} px)")
+    return 0
+
+
+def _add_flow(sub: argparse._SubParsersAction) -> None:
+    from flowvo.flow.registry import available_methods
+
+    p = sub.add_parser("flow", help="compute (or resume) the flow cache of a sequence; optional colour pictures")
+    p.add_argument("--data", required=True, help="dataset root in the KITTI layout")
+    p.add_argument("--sequence", required=True, help="sequence name, e.g. 09")
+    p.add_argument("--method", default="dis-fast", choices=available_methods(), help="flow method")
+    p.add_argument("--scale", type=float, default=0.5, help="working resolution relative to the frames")
+    p.add_argument("--cache", help="cache root (default DATA/flow_cache)")
+    p.add_argument("--flow-weights", help="local weights for flownets / raft-*")
+    p.add_argument("--visualize", metavar="DIR", help="write colour-wheel pictures of the flow here")
+    p.add_argument("--every", type=int, default=1, help="with --visualize: every N-th pair")
+    p.add_argument("--gif", action="store_true", help="with --visualize: also an animated flow.gif")
+    p.set_defaults(func=_cmd_flow)
+
+
+SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_eval, _add_synth, _add_flow]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -5,7 +5,12 @@ For people only: the network always reads raw (u, v) floats, never these picture
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import cv2
 import numpy as np
+
+from flowvo.atomic import atomic_path
 
 # transitions of the Middlebury wheel: red-yellow, yellow-green, green-cyan, cyan-blue, blue-magenta, magenta-red
 _SEGMENTS = (15, 6, 4, 11, 13, 6)
@@ -49,3 +54,30 @@ def color_legend(size_px: int = 101) -> np.ndarray:
     legend = flow_to_color(np.stack([u, v], -1), max_magnitude_px=float(r))
     legend[np.hypot(u, v) > r] = 255
     return legend
+
+
+def save_flow_pictures(flows, out_dir: str | Path, max_magnitude_px: float, gif: bool = False) -> list[Path]:
+    """Write ``flow_NNNNNN.png`` per field of ``flows`` (an iterable of (index, flow)), ``legend.png`` and,
+    optionally, ``flow.gif`` (10 fps, half size). All pictures share one magnitude scale."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written, frames = [], []
+    for index, flow in flows:
+        picture = flow_to_color(flow, max_magnitude_px)
+        path = out / f"flow_{index:06d}.png"
+        with atomic_path(path) as tmp:
+            cv2.imwrite(str(tmp), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
+        written.append(path)
+        if gif:
+            frames.append(picture[::2, ::2])
+    with atomic_path(out / "legend.png") as tmp:
+        cv2.imwrite(str(tmp), cv2.cvtColor(color_legend(), cv2.COLOR_RGB2BGR))
+    written.append(out / "legend.png")
+    if gif and frames:
+        from PIL import Image  # Pillow comes with matplotlib
+
+        images = [Image.fromarray(frame) for frame in frames]
+        with atomic_path(out / "flow.gif") as tmp:
+            images[0].save(tmp, save_all=True, append_images=images[1:], duration=100, loop=0)
+        written.append(out / "flow.gif")
+    return written
