@@ -23,3 +23,12 @@ def example_results_dir() -> Path:
     if not EXAMPLE_RESULTS.is_dir():
         pytest.skip(f"shared example results not found at {EXAMPLE_RESULTS}")
     return EXAMPLE_RESULTS
+
+
+@pytest.fixture(autouse=True, scope="session")
+def single_torch_thread():
+    """One intra-op thread per test process: on a busy 2-core machine, spinning OpenMP threads make small
+    networks 10x slower; results do not depend on the thread count."""
+    import torch
+
+    torch.set_num_threads(1)

@@ -100,7 +100,112 @@ def _add_flow(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_flow)
 
 
-SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [_add_eval, _add_synth, _add_flow]
+def _cmd_train(args: argparse.Namespace) -> int:
+    from flowvo.model.config import SPLITS, TrainConfig
+    from flowvo.model.train import train
+
+    config = TrainConfig.from_yaml(args.config) if args.config else TrainConfig()
+    overrides = {"data": args.data, "out": args.out, "epochs": args.epochs, "batch_size": args.batch_size,
+                 "learning_rate": args.lr, "seed": args.seed, "flow_method": args.flow_method,
+                 "flow_scale": args.flow_scale, "flow_cache": args.cache, "device": args.device}
+    for key, value in overrides.items():
+        if value is not None:
+            setattr(config, key, value)
+    if args.split:
+        config.train_sequences, config.val_sequences = (list(s) for s in SPLITS[args.split])
+    if args.train:
+        config.train_sequences = args.train
+    if args.val:
+        config.val_sequences = args.val
+    if args.width:
+        config.model.width = args.width
+    if args.head:
+        config.model.head = args.head
+    if args.stack:
+        config.model.stack = args.stack
+    if not config.data:
+        raise FlowvoError("no data: give --data ROOT or 'data:' in the config")
+    out = train(config, resume=args.resume)
+    print(f"training finished: {out}/best.pt, log {out}/log.csv, curve {out}/learning_curve.png")
+    return 0
+
+
+def _add_train(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("train", help="train the odometry CNN (checkpoints every epoch, --resume, DDP via torchrun)")
+    p.add_argument("--config", help="YAML with TrainConfig fields (flags below override it)")
+    p.add_argument("--data", help="dataset root (KITTI layout, real or synthetic)")
+    p.add_argument("--out", help="run folder (default runs/train)")
+    p.add_argument("--split", choices=("kitti",), help="preset split: kitti = train 00-07, validate 08-10")
+    p.add_argument("--train", nargs="+", help="training sequences")
+    p.add_argument("--val", nargs="+", help="validation sequences")
+    p.add_argument("--epochs", type=int)
+    p.add_argument("--batch-size", type=int)
+    p.add_argument("--lr", type=float)
+    p.add_argument("--seed", type=int)
+    p.add_argument("--width", type=float, help="channel width multiplier (1.0 = thesis network)")
+    p.add_argument("--head", choices=("planar", "se3"))
+    p.add_argument("--stack", type=int, help="consecutive flow fields as input")
+    p.add_argument("--flow-method", help="flow method of the caches")
+    p.add_argument("--flow-scale", type=float, help="flow working scale relative to the frames")
+    p.add_argument("--cache", help="flow cache root (default DATA/flow_cache)")
+    p.add_argument("--device", help="cpu or cuda")
+    p.add_argument("--resume", action="store_true", help="continue from OUT/last.pt")
+    p.set_defaults(func=_cmd_train)
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from flowvo.pipeline import RunOptions, run
+
+    summary = run(RunOptions(data=args.data, sequence=args.sequence, out=args.out, method=args.method,
+                             model=args.model, flow_method=args.flow_method, flow_scale=args.flow_scale,
+                             flow_cache=args.cache, flow_weights=args.flow_weights, median_window=args.median,
+                             classical_scale=args.scale_from, device=args.device))
+    print(f"{summary['label']} on sequence {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
+    print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json")
+    if "metrics" in summary:
+        m = summary["metrics"]
+        if m["t_err_percent"] is not None:
+            print(f"t_err {m['t_err_percent']:.2f} %  r_err {m['r_err_deg_per_m']:.4f} deg/m", end="  ")
+        print(f"ATE {m['ate_rmse_m']:.2f} m")
+    return 0
+
+
+def _add_run(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="odometry on one sequence: poses (KITTI, TUM), timing.json, evaluation")
+    p.add_argument("--data", required=True, help="dataset root in the KITTI layout")
+    p.add_argument("--sequence", required=True)
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--method", choices=("learned", "classical"), default="learned")
+    p.add_argument("--model", help="checkpoint for the learned method (default: the packaged model)")
+    p.add_argument("--flow-method", help="override the flow method the model was trained with")
+    p.add_argument("--flow-scale", type=float, help="override the flow working scale")
+    p.add_argument("--cache", help="flow cache root (default DATA/flow_cache)")
+    p.add_argument("--flow-weights", help="weights for a learned flow method")
+    p.add_argument("--median", type=int, default=1, help="temporal median over the last K predictions")
+    p.add_argument("--scale-from", choices=("gt", "height"), default="gt",
+                   help="classical method's metric scale: GT step lengths, or the 1.65 m camera height")
+    p.add_argument("--device", default="cpu")
+    p.set_defaults(func=_cmd_run)
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    from flowvo.model.export import export_torchscript
+
+    for path in export_torchscript(args.model, args.out):
+        print(f"wrote {path}")
+    return 0
+
+
+def _add_export(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("export", help="export a checkpoint to TorchScript (+ JSON with the normalisation)")
+    p.add_argument("--model", required=True)
+    p.add_argument("--out", required=True, help="output file, e.g. model.ts")
+    p.set_defaults(func=_cmd_export)
+
+
+SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
+    _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_export,
+]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -28,7 +28,11 @@ class Evaluation:
 def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> Evaluation:
     """The KITTI odometry metric (needs no alignment), ATE after ``alignment``, and one-frame RPE."""
     segments = kitti.sequence_segment_errors(gt, pred)
-    metrics = kitti.summarize(segments)
+    if len(segments):
+        metrics = kitti.summarize(segments)
+    else:  # shorter than 100 m: the KITTI metric is undefined, ATE and RPE still are
+        metrics = {"t_err_percent": None, "r_err_deg_per_m": None, "r_err_deg_per_100m": None, "segments": 0,
+                   "per_length": [], "per_speed": [], "note": "no 100..800 m segment: path shorter than 100 m"}
     metrics["units"] = {
         "t_err_percent": "% of segment length",
         "r_err_deg_per_m": "degrees per metre",
@@ -59,9 +63,15 @@ def pooled_summary(evaluations: list[Evaluation]) -> dict:
 
 def format_table(metrics: dict) -> str:
     """A short human-readable table of the headline numbers, with units."""
+    if metrics["t_err_percent"] is None:
+        kitti_rows = [("t_err", "n/a (path shorter than 100 m)"), ("r_err", "n/a")]
+    else:
+        kitti_rows = [
+            ("t_err", f"{metrics['t_err_percent']:.4f} %"),
+            ("r_err", f"{metrics['r_err_deg_per_m']:.6f} deg/m  ({metrics['r_err_deg_per_100m']:.4f} deg/100m)"),
+        ]
     rows = [
-        ("t_err", f"{metrics['t_err_percent']:.4f} %"),
-        ("r_err", f"{metrics['r_err_deg_per_m']:.6f} deg/m  ({metrics['r_err_deg_per_100m']:.4f} deg/100m)"),
+        *kitti_rows,
         ("segments", str(metrics["segments"])),
         (f"ATE RMSE (align {metrics['ate_alignment']})", f"{metrics['ate_rmse_m']:.3f} m"),
         ("RPE trans RMSE (1 frame)", f"{metrics['rpe_trans_rmse_m']:.4f} m"),

@@ -127,7 +127,25 @@ class FlowCache:
             with atomic_path(self.chunk_path(chunk)) as tmp:
                 np.save(tmp, flows)
             timing["pairs"] += last - first
+        if timing["pairs"]:
+            self._record_timing(timing)
         return timing
+
+    @property
+    def timing_path(self) -> Path:
+        return self.directory / "timing.json"
+
+    def _record_timing(self, timing: dict) -> None:
+        totals = self.recorded_timing() or {"read_s": 0.0, "flow_s": 0.0, "pairs": 0}
+        for key in ("read_s", "flow_s", "pairs"):
+            totals[key] += timing[key]
+        write_json_atomic(self.timing_path, totals)
+
+    def recorded_timing(self) -> dict | None:
+        """Seconds spent reading frames and estimating flow over all runs that filled this cache."""
+        if not self.timing_path.is_file():
+            return None
+        return json.loads(self.timing_path.read_text())
 
     def read(self, pair: int) -> np.ndarray:
         """Flow of pair ``pair`` (frame pair -> pair+1), float32 (H, W, 2)."""

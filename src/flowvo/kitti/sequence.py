@@ -125,6 +125,11 @@ class KittiSequence:
             raise FlowvoError(f"has {len(trajectory)} poses for {len(self)} frames", self.pose_path)
         return trajectory
 
+    @property
+    def is_synthetic(self) -> bool:
+        """True for sequences rendered by ``flowvo synth`` (they carry a synthetic.json)."""
+        return (self.directory / "synthetic.json").is_file()
+
     def read_image(self, index: int, color: bool = False) -> np.ndarray:
         """Frame ``index`` as uint8, (H, W) grey or (H, W, 3) BGR."""
         path = self.image_paths[index]

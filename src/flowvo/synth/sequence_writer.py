@@ -14,7 +14,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flowvo.atomic import atomic_path, write_text_atomic
+from flowvo.atomic import atomic_path, write_json_atomic, write_text_atomic
 from flowvo.geometry import invert_se3
 from flowvo.kitti.calib import Calibration, format_calibration
 from flowvo.kitti.poses import write_kitti_poses
@@ -80,6 +80,10 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
     write_text_atomic(directory / "calib.txt", format_calibration(kitti_calibration(K)))
     write_text_atomic(directory / "times.txt", "".join(f"{0.1 * i:.6e}\n" for i in range(len(spec.T_world_cam))))
     write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(spec.T_world_cam))
+    write_json_atomic(directory / "synthetic.json", {
+        "synthetic": True, "seed": spec.seed, "scene": spec.scene or "varied", "scale": spec.scale,
+        "frames": len(spec.T_world_cam), "generator": "flowvo synth",
+    })
     world = build_world(spec.T_world_cam, spec.seed, spec.scene)
     todo = [i for i in range(len(spec.T_world_cam)) if not (image_dir / f"{i:06d}.png").exists()]
     if spec.gt_flow:

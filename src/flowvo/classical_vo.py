@@ -1,0 +1,93 @@
+"""Classical monocular baseline: KLT-tracked corners, essential matrix with RANSAC, recoverPose.
+
+Monocular VO has no metric scale. Two protocols: ``gt`` takes each step's length from the ground truth
+(the usual protocol for evaluating monocular methods on KITTI), ``height`` recovers it from the known
+camera height above the road (KITTI: 1.65 m) by fitting the ground plane to triangulated points below
+the horizon, as VISO2-M does.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from flowvo.geometry import invert_se3
+
+CAMERA_HEIGHT_M = 1.65
+MIN_TRACKS = 30
+STILL_FLOW_PX = 0.3
+
+
+def track_corners(prev: np.ndarray, following: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Corners of ``prev`` tracked into ``following`` by pyramidal KLT with a forward-backward check."""
+    corners = cv2.goodFeaturesToTrack(prev, maxCorners=1500, qualityLevel=0.01, minDistance=7, blockSize=7)
+    if corners is None:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    params = {"winSize": (21, 21), "maxLevel": 3,
+              "criteria": (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01)}
+    forward, status, _ = cv2.calcOpticalFlowPyrLK(prev, following, corners, None, **params)
+    backward, status_back, _ = cv2.calcOpticalFlowPyrLK(following, prev, forward, None, **params)
+    good = (status[:, 0] == 1) & (status_back[:, 0] == 1) & (np.linalg.norm(backward - corners, axis=2)[:, 0] < 1.0)
+    return corners[good, 0].astype(np.float64), forward[good, 0].astype(np.float64)
+
+
+def relative_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
+                    ) -> tuple[np.ndarray, np.ndarray] | None:
+    """Unit-translation motion ``T_prev_next`` (4, 4) and the inlier mask, or None when degenerate."""
+    if len(points_prev) < MIN_TRACKS:
+        return None
+    E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.RANSAC, 0.999, 1.0)
+    if E is None or E.shape != (3, 3):
+        return None
+    inliers, R, t, mask = cv2.recoverPose(E, points_prev, points_next, K, mask=mask)
+    if inliers < MIN_TRACKS // 2:
+        return None
+    T_next_prev = np.eye(4)
+    T_next_prev[:3, :3], T_next_prev[:3, 3] = R, t[:, 0]
+    return invert_se3(T_next_prev), mask[:, 0] > 0
+
+
+def ground_height_unit(points_prev, points_next, T_prev_next, K, image_hw) -> float | None:
+    """Camera height above the road in units of the (unit) step, from points below the horizon."""
+    h, w = image_hw
+    road = (points_prev[:, 1] > K[1, 2] + 0.1 * h) & (np.abs(points_prev[:, 0] - K[0, 2]) < 0.3 * w)
+    if road.sum() < 12:
+        return None
+    P0 = K @ np.eye(3, 4)
+    P1 = K @ invert_se3(T_prev_next)[:3]
+    X = cv2.triangulatePoints(P0, P1, points_prev[road].T, points_next[road].T)
+    X = (X[:3] / X[3]).T
+    X = X[(X[:, 2] > 0) & (X[:, 2] < 60) & (X[:, 1] > 0)]
+    if len(X) < 8:
+        return None
+    return float(np.median(X[:, 1]))  # road points: y (down) is the height below the camera
+
+
+def classical_motions(frames, K: np.ndarray, step_lengths_m: np.ndarray | None) -> np.ndarray:
+    """Relative motions (N-1, 4, 4) ``T_{i-1}^{-1} T_i`` of a frame iterator; metric scale from
+    ``step_lengths_m`` (GT protocol) or, when None, from the camera height."""
+    motions = []
+    previous = next(frames)
+    last_scale = 1.0
+    last_motion = np.eye(4)
+    for i, current in enumerate(frames):
+        p0, p1 = track_corners(previous, current)
+        still = len(p0) >= MIN_TRACKS and np.median(np.linalg.norm(p1 - p0, axis=1)) < STILL_FLOW_PX
+        result = None if still else relative_motion(p0, p1, K)
+        if result is None:
+            motion = np.eye(4) if still else last_motion
+        else:
+            motion, inliers = result
+            if step_lengths_m is not None:
+                scale = step_lengths_m[i]
+            else:
+                height = ground_height_unit(p0[inliers], p1[inliers], motion, K, previous.shape)
+                scale = CAMERA_HEIGHT_M / height if height and height > 1e-3 else last_scale
+                scale = float(np.clip(scale, 0.0, 4.0))
+                last_scale = scale
+            motion = motion.copy()
+            motion[:3, 3] *= scale
+        motions.append(motion)
+        last_motion = motion
+        previous = current
+    return np.stack(motions)

@@ -1,0 +1,1 @@
+"""The learned odometry: FlowNetS-contractive network, data, training, checkpoints, inference."""
