@@ -203,8 +203,63 @@ def _add_export(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_export)
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from flowvo.report import write_report
+
+    print(f"report: {write_report(args.runs, args.out)}")
+    return 0
+
+
+def _add_report(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("report", help="one HTML page comparing run folders: tables, paths, error curves, timing")
+    p.add_argument("runs", nargs="+", help="output folders of 'flowvo run'")
+    p.add_argument("--out", required=True, help="report folder (index.html + PNGs)")
+    p.set_defaults(func=_cmd_report)
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from flowvo.demo import demo
+
+    report = demo(args.out, args.data, args.sequence, args.model, args.frames)
+    print(f"report: {report}")
+    if args.data is None:
+        print("(synthetic data: a held-out world and drive rendered by flowvo synth, not real KITTI)")
+    return 0
+
+
+def _add_demo(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("demo", help="one command: synthetic drive (or --data), packaged model, baseline, report")
+    p.add_argument("--data", help="KITTI root (default: render a synthetic held-out drive)")
+    p.add_argument("--sequence", help="sequence of --data")
+    p.add_argument("--model", help="checkpoint (default: the packaged model)")
+    p.add_argument("--frames", type=int, default=900, help="frames of the synthetic drive")
+    p.add_argument("--out", default="runs/demo", help="output folder")
+    p.set_defaults(func=_cmd_demo)
+
+
+def _cmd_bench(args: argparse.Namespace) -> int:
+    from flowvo.bench import benchmark, format_bench_table
+
+    rows = benchmark(args.data, args.sequence, args.methods, args.frames, args.repeat, args.model, args.flow_method)
+    print(format_bench_table(rows))
+    return 0
+
+
+def _add_bench(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="timing table: seconds per frame by stage, streaming, median of repeats")
+    p.add_argument("--data", required=True)
+    p.add_argument("--sequence", required=True)
+    p.add_argument("--methods", nargs="+", choices=("learned", "classical"), default=["learned", "classical"])
+    p.add_argument("--frames", type=int, default=200)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--model", help="checkpoint (default: the packaged model)")
+    p.add_argument("--flow-method", help="override the model's flow method")
+    p.set_defaults(func=_cmd_bench)
+
+
 SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_export,
+    _add_demo, _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_export, _add_report,
+    _add_bench,
 ]
 
 

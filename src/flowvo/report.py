@@ -1,0 +1,180 @@
+"""``flowvo report``: one self-contained HTML page (plus PNGs) comparing runs of ``flowvo run``.
+
+Every number is recomputed from the pose files with :func:`flowvo.evaluation.evaluate`, the same code as
+``flowvo eval``. Published figures of the reference system are shown beside ours and labelled so.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+from flowvo import plots
+from flowvo.atomic import write_text_atomic
+from flowvo.errors import FlowvoError
+from flowvo.evaluation import Evaluation, evaluate, pooled_summary
+from flowvo.kitti.poses import read_kitti_poses
+from flowvo.kitti.sequence import KittiSequence
+
+REFERENCE_LABEL = "reference system (2016), published"
+REFERENCE_FIGURES = {  # sequence -> (t_err %, r_err deg/m), as published; 10 alone was not given
+    "08": (9.98, 0.0544),
+    "09": (12.64, 0.0804),
+    "average 08-10": (10.77, 0.0623),
+}
+REFERENCE_SECONDS_PER_FRAME = 0.633
+
+
+@dataclass
+class RunRecord:
+    """One run folder: its summary, timing and the evaluation recomputed from its pose file."""
+
+    folder: Path
+    summary: dict
+    timing: dict
+    evaluation: Evaluation | None
+
+
+def load_run(folder: str | Path) -> RunRecord:
+    """Read run.json, timing.json and the poses of a ``flowvo run`` output folder."""
+    folder = Path(folder)
+    for name in ("run.json", "timing.json"):
+        if not (folder / name).is_file():
+            raise FlowvoError(f"not a flowvo run folder (no {name})", folder)
+    summary = json.loads((folder / "run.json").read_text())
+    timing = json.loads((folder / "timing.json").read_text())
+    sequence = KittiSequence(summary["data"], summary["sequence"])
+    evaluation = None
+    if sequence.has_poses:
+        evaluation = evaluate(sequence.poses, read_kitti_poses(folder / summary["poses"]))
+    return RunRecord(folder, summary, timing, evaluation)
+
+
+def _fmt(value: float | None, digits: int) -> str:
+    return "n/a" if value is None else f"{value:.{digits}f}"
+
+
+def _results_table(runs: list[RunRecord]) -> tuple[str, list[dict]]:
+    rows, records = [], []
+    for run in runs:
+        m = run.evaluation.metrics if run.evaluation else {}
+        record = {"method": run.summary["label"], "sequence": run.summary["sequence"],
+                  "synthetic": run.summary["synthetic"], "frames": run.summary["frames"],
+                  "t_err_percent": m.get("t_err_percent"), "r_err_deg_per_m": m.get("r_err_deg_per_m"),
+                  "ate_rmse_m": m.get("ate_rmse_m")}
+        records.append(record)
+        data_kind = "synthetic" if record["synthetic"] else "KITTI"
+        rows.append(f"<tr><td>{html.escape(record['method'])}</td><td>{record['sequence']} ({data_kind})</td>"
+                    f"<td>{record['frames']}</td><td>{_fmt(record['t_err_percent'], 2)}</td>"
+                    f"<td>{_fmt(record['r_err_deg_per_m'], 4)}</td><td>{_fmt(record['ate_rmse_m'], 2)}</td></tr>")
+    methods = sorted({r["method"] for r in records})
+    for method in methods:
+        mine = [r for r in records if r["method"] == method and r["t_err_percent"] is not None]
+        if len(mine) < 1:
+            continue
+        frames = sum(r["frames"] for r in mine)
+        t = sum(r["t_err_percent"] * r["frames"] for r in mine) / frames
+        r_ = sum(r["r_err_deg_per_m"] * r["frames"] for r in mine) / frames
+        rows.append(f"<tr class='avg'><td>{html.escape(method)}</td><td>frame-weighted average</td>"
+                    f"<td>{frames}</td><td>{t:.2f}</td><td>{r_:.4f}</td><td></td></tr>")
+    for sequence, (t, r) in REFERENCE_FIGURES.items():
+        rows.append(f"<tr class='ref'><td>{REFERENCE_LABEL}</td><td>{sequence} (real KITTI)</td><td></td>"
+                    f"<td>{t:.2f}</td><td>{r:.4f}</td><td></td></tr>")
+    header = ("<tr><th>method</th><th>sequence</th><th>frames</th><th>t_err [%]</th><th>r_err [deg/m]</th>"
+              "<th>ATE [m]</th></tr>")
+    return f"<table>{header}{''.join(rows)}</table>", records
+
+
+def _timing_table(runs: list[RunRecord]) -> str:
+    baseline = [r for r in runs if r.summary.get("method") == "classical"]
+    baseline_total = baseline[0].timing["seconds_per_frame"]["total"] if baseline else None
+    rows = []
+    for run in runs:
+        spf = run.timing["seconds_per_frame"]
+        versus_base = f"{baseline_total / spf['total']:.1f}x" if baseline_total and spf["total"] else "n/a"
+        rows.append(f"<tr><td>{html.escape(run.summary['label'])}</td><td>{run.summary['sequence']}</td>"
+                    f"<td>{spf['image_read']:.4f}</td><td>{spf['flow']:.4f}</td><td>{spf['network']:.4f}</td>"
+                    f"<td>{spf['total']:.4f}</td><td>{REFERENCE_SECONDS_PER_FRAME / spf['total']:.1f}x</td>"
+                    f"<td>{versus_base}</td></tr>")
+    rows.append(f"<tr class='ref'><td>{REFERENCE_LABEL} (GPU)</td><td>08-10</td><td></td><td></td><td></td>"
+                f"<td>{REFERENCE_SECONDS_PER_FRAME:.3f}</td><td>1.0x</td><td></td></tr>")
+    header = ("<tr><th>method</th><th>sequence</th><th>image read [s/frame]</th><th>flow [s/frame]</th>"
+              "<th>network [s/frame]</th><th>total [s/frame]</th><th>speed-up vs reference</th>"
+              "<th>speed-up vs baseline</th></tr>")
+    return f"<table>{header}{''.join(rows)}</table>"
+
+
+def _figures(runs: list[RunRecord], out: Path) -> list[tuple[str, str]]:
+    figures = []
+    for sequence in sorted({r.summary["sequence"] for r in runs if r.evaluation}):
+        mine = [r for r in runs if r.summary["sequence"] == sequence and r.evaluation]
+        gt = mine[0].evaluation.gt.positions
+        kind = "synthetic" if mine[0].summary["synthetic"] else "KITTI"
+        paths = {r.summary["label"]: r.evaluation.pred.positions for r in mine}
+        name = f"path_{sequence}.png"
+        plots.plot_paths(paths, gt, f"sequence {sequence} ({kind}): x-z path", out / name)
+        figures.append((name, f"Sequence {sequence} ({kind}): bird's-eye path, ground truth vs each method"))
+        axes = (("per_length", "length_m", "path length [m]", "length"),
+                ("per_speed", "speed_mps", "speed [m/s]", "speed"))
+        for key, x_key, label, stem in axes:
+            curves = {r.summary["label"]: r.evaluation.metrics[key] for r in mine}
+            for written in plots.plot_error_curves(curves, x_key, label, f"{stem}_{sequence}", out):
+                figures.append((written.name, f"Sequence {sequence}: {written.stem.replace('_', ' ')}"))
+        histogram = plots.plot_frame_error_histograms({r.summary["label"]: r.evaluation.frame_errors for r in mine},
+                                                       out)
+        renamed = histogram.with_name(f"frame_errors_{sequence}.png")
+        histogram.replace(renamed)
+        figures.append((renamed.name, f"Sequence {sequence}: per-frame translation (m) and rotation (deg) errors"))
+    return figures
+
+
+STYLE = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#222}
+table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}
+td:first-child,th:first-child{text-align:left}tr.avg{font-weight:bold;background:#eef}
+tr.ref{font-style:italic;background:#f6f6f6}img{max-width:100%;border:1px solid #ddd}
+.note{background:#fff6d5;padding:8px;border-left:4px solid #e0b000}figure{margin:1em 0}"""
+
+
+def write_report(run_folders: list[str | Path], out_dir: str | Path) -> Path:
+    """Write ``out_dir/index.html`` and its PNGs; returns the HTML path."""
+    if not run_folders:
+        raise FlowvoError("no run folders given")
+    runs = [load_run(folder) for folder in run_folders]
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    results_html, records = _results_table(runs)
+    figures = _figures(runs, out)
+    synthetic = any(r.summary["synthetic"] for r in runs)
+    pooled = {}
+    for method in sorted({r.summary["label"] for r in runs}):
+        evaluations = [r.evaluation for r in runs if r.summary["label"] == method and r.evaluation
+                       and r.evaluation.metrics["segments"]]
+        if evaluations:
+            pooled[method] = pooled_summary(evaluations)
+    pooled_rows = "".join(
+        f"<tr><td>{html.escape(m)}</td><td>{p['t_err_percent']:.2f}</td><td>{p['r_err_deg_per_m']:.4f}</td>"
+        f"<td>{p['segments']}</td></tr>" for m, p in pooled.items())
+    note = ("<p class='note'><b>Synthetic data.</b> Sequences marked synthetic were rendered by flowvo synth; "
+            "their numbers are not comparable with results on real KITTI frames. The reference system's "
+            "figures are published results on real KITTI.</p>") if synthetic else ""
+    body = [
+        "<h1>flowvo odometry report</h1>", note,
+        "<h2>Average errors per sequence (KITTI odometry metric, 100-800 m sub-paths)</h2>", results_html,
+        "<h3>All segments pooled (the KITTI multi-sequence average)</h3>",
+        "<table><tr><th>method</th><th>t_err [%]</th><th>r_err [deg/m]</th><th>segments</th></tr>"
+        f"{pooled_rows}</table>",
+        "<h2>Timing on this machine</h2>", _timing_table(runs),
+        "<p>Seconds per frame by stage. The learned method's flow time is measured when its flow cache is "
+        "filled; its network time is batched inference. Speed-ups divide the reference system's 0.633 s/frame "
+        "(GPU) and the baseline's total by each method's total.</p>",
+        "<h2>Figures</h2>",
+        *(f"<figure><img src='{name}' alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}"
+          "</figcaption></figure>" for name, caption in figures),
+        f"<script type='application/json' id='results'>{json.dumps(records)}</script>",
+    ]
+    page = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>flowvo report</title>"
+            f"<style>{STYLE}</style></head><body>{''.join(body)}</body></html>\n")
+    write_text_atomic(out / "index.html", page)
+    return out / "index.html"

@@ -1,0 +1,73 @@
+import json
+import re
+
+import pytest
+
+from flowvo.cli import main
+from flowvo.demo import packaged_model_path
+from flowvo.synth.dataset import synthesize
+
+
+@pytest.fixture(scope="module")
+def classical_runs(tmp_path_factory):
+    root = tmp_path_factory.mktemp("reportdata")
+    synthesize(root, ["00"], seed=8, frames=220, scale=0.5, workers=2)
+    runs = []
+    for source in ("gt", "height"):
+        out = root / f"run_{source}"
+        assert main(["run", "--data", str(root), "--sequence", "00", "--method", "classical",
+                     "--scale-from", source, "--out", str(out), "-q"]) == 0
+        runs.append(out)
+    return root, runs
+
+
+def test_report_numbers_equal_flowvo_eval(classical_runs, tmp_path, capsys):
+    root, runs = classical_runs
+    assert main(["report", *map(str, runs), "--out", str(tmp_path / "report")]) == 0
+    page = (tmp_path / "report" / "index.html").read_text()
+    records = json.loads(re.search(r"<script type='application/json' id='results'>(.*?)</script>", page).group(1))
+    for record, run in zip(records, runs, strict=True):
+        assert main(["eval", "--gt", str(root / "poses" / "00.txt"), "--pred", str(run / "00.txt"),
+                     "--out", str(tmp_path / run.name)]) == 0
+        metrics = json.loads((tmp_path / run.name / "metrics.json").read_text())
+        assert record["t_err_percent"] == metrics["t_err_percent"]
+        assert record["r_err_deg_per_m"] == metrics["r_err_deg_per_m"]
+        assert f"{metrics['t_err_percent']:.2f}" in page
+
+
+def test_report_has_every_section(classical_runs, tmp_path):
+    _, runs = classical_runs
+    main(["report", *map(str, runs), "--out", str(tmp_path)])
+    page = (tmp_path / "index.html").read_text()
+    for text in ("Synthetic data", "reference system (2016), published", "frame-weighted average", "10.77",
+                 "0.0623", "speed-up vs reference", "Timing on this machine"):
+        assert text in page
+    for png in ("path_00.png", "t_err_vs_length_00.png", "r_err_vs_speed_00.png", "frame_errors_00.png"):
+        assert f"src='{png}'" in page and (tmp_path / png).is_file()
+
+
+def test_classical_baseline_with_gt_scale_tracks_the_synthetic_drive(classical_runs):
+    _, runs = classical_runs
+    summary = json.loads((runs[0] / "run.json").read_text())
+    assert summary["synthetic"] is True
+    assert summary["metrics"]["t_err_percent"] < 10.0  # measured ~2 % on such drives
+    timing = json.loads((runs[0] / "timing.json").read_text())
+    assert set(timing["seconds_per_frame"]) == {"image_read", "flow", "network", "chaining", "total"}
+
+
+def test_report_refuses_a_folder_that_is_not_a_run(tmp_path, capsys):
+    assert main(["report", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
+    assert "not a flowvo run folder (no run.json)" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
+    try:
+        packaged_model_path()
+    except Exception:
+        pytest.skip("no packaged model yet")
+    assert main(["demo", "--frames", "160", "--out", str(tmp_path), "-q"]) == 0
+    printed = capsys.readouterr().out
+    assert "report:" in printed and "synthetic" in printed
+    page = (tmp_path / "report" / "index.html").read_text()
+    assert "flowvo (dis-medium + CNN)" in page and "classical VO" in page
