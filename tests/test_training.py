@@ -68,6 +68,13 @@ def test_train_and_run_from_the_cli(tiny_data, tmp_path, capsys):
     assert main(["export", "--model", str(tmp_path / "run/best.pt"), "--out", str(tmp_path / "m.ts")]) == 0
     scripted = torch.jit.load(str(tmp_path / "m.ts"))
     assert scripted(torch.zeros(1, 2, 32, 96)).shape == (1, 2)
+    assert main(["export", "--model", str(tmp_path / "run/best.pt"), "--out", str(tmp_path / "slim.pt"),
+                 "--format", "slim"]) == 0
+    assert (tmp_path / "slim.pt").stat().st_size < (tmp_path / "run/best.pt").stat().st_size / 2
+    assert main(["run", "--data", str(tiny_data), "--sequence", "02", "--model", str(tmp_path / "slim.pt"),
+                 "--out", str(tmp_path / "out_slim"), "--median", "3", "-q"]) == 0
+    full, slim = np.loadtxt(tmp_path / "out" / "02.txt"), np.loadtxt(tmp_path / "out_slim" / "02.txt")
+    assert np.abs(full - slim).max() < 0.5  # float16 weights, same trajectory to within rounding drift
 
 
 def test_resume_with_another_architecture_is_refused(tiny_data, tmp_path, capsys):

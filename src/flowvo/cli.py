@@ -189,17 +189,22 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
+    from flowvo.model.checkpoint import write_slim_checkpoint
     from flowvo.model.export import export_torchscript
 
-    for path in export_torchscript(args.model, args.out):
+    written = [write_slim_checkpoint(args.model, args.out)] if args.format == "slim" else \
+        export_torchscript(args.model, args.out)
+    for path in written:
         print(f"wrote {path}")
     return 0
 
 
 def _add_export(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("export", help="export a checkpoint to TorchScript (+ JSON with the normalisation)")
+    p = sub.add_parser("export", help="export a checkpoint: TorchScript (+ JSON), or a slim float16 checkpoint")
     p.add_argument("--model", required=True)
-    p.add_argument("--out", required=True, help="output file, e.g. model.ts")
+    p.add_argument("--out", required=True, help="output file, e.g. model.ts or default.pt")
+    p.add_argument("--format", choices=("torchscript", "slim"), default="torchscript",
+                   help="slim: float16 weights + config + normalisation, runnable by flowvo run (not resumable)")
     p.set_defaults(func=_cmd_export)
 
 

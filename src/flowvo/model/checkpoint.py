@@ -66,3 +66,14 @@ def load_model(path: str | Path, expected: ModelConfig | None = None) -> tuple[O
     except RuntimeError:
         raise FlowvoError("weights do not fit the architecture stored in the checkpoint", path) from None
     return model.eval(), Normalization.from_dict(state["normalization"]), state
+
+
+def write_slim_checkpoint(source: str | Path, target: str | Path) -> Path:
+    """A deployable checkpoint: float16 weights, configuration, normalisation and training history;
+    no optimiser, scheduler or RNG state (so it cannot be resumed, only run)."""
+    state = read_checkpoint(source)
+    keep = ("model_config", "train_config", "normalization", "flow_size_hw", "history", "epoch", "best")
+    slim = {key: state[key] for key in keep if key in state}
+    slim["model_state"] = {k: v.half() if v.is_floating_point() else v for k, v in state["model_state"].items()}
+    save_checkpoint(target, slim)
+    return Path(target)
