@@ -70,6 +70,21 @@ def test_dataset_mirrors_every_sample():
     torch.testing.assert_close(x0[:2], x0[2:])  # pair 0 repeats itself to fill the stack
 
 
+def test_mirror_about_an_off_centre_principal_point_after_centring():
+    size_hw = (60, 161)
+    K = np.array([[100.0, 0, 70.0], [0, 100.0, 20.0], [0, 0, 1]])  # principal point 10 px left of centre
+    right_turn = g.chain_planar(np.array([[1.2, 0.05]]))
+    left_turn = np.stack([g.MIRROR_X @ p @ g.MIRROR_X for p in right_turn])
+    depth = level_scene_depth(size_hw, K)
+    flow_right, _ = flow_from_depth(depth, K, g.invert_se3(right_turn[1]) @ right_turn[0])
+    flow_left, _ = flow_from_depth(depth, K, g.invert_se3(left_turn[1]) @ left_turn[0])
+    centred_right = resize_flow(flow_right, (60, 141), cx_px=70.0)
+    centred_left = resize_flow(flow_left, (60, 141), cx_px=70.0)
+    np.testing.assert_allclose(mirror_input(torch.from_numpy(centred_right)).numpy(), centred_left, atol=1e-4)
+    plain_flip = mirror_input(torch.from_numpy(flow_right.transpose(2, 0, 1))).numpy()
+    assert np.abs(plain_flip - flow_left.transpose(2, 0, 1)).max() > 0.1  # why the centring is needed
+
+
 def test_resize_flow_rescales_values_with_the_size():
     flow = np.zeros((40, 100, 2), np.float32)
     flow[..., 0], flow[..., 1] = 10.0, -4.0

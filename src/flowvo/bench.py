@@ -33,6 +33,7 @@ def _time_learned(sequence: KittiSequence, frames: int, model_path: Path, flow_m
     seconds = dict.fromkeys(STAGES, 0.0)
     pose = np.eye(4)
     previous = resize_frame(sequence.read_image(0), scale)
+    cx_px = float(sequence.calibration.K0[0, 2]) * previous.shape[1] / sequence.image_size_hw[1]
     with torch.no_grad():
         for index in range(1, frames):
             t0 = time.perf_counter()
@@ -40,7 +41,7 @@ def _time_learned(sequence: KittiSequence, frames: int, model_path: Path, flow_m
             t1 = time.perf_counter()
             flow = estimator.estimate(previous, current)
             t2 = time.perf_counter()
-            channels = torch.from_numpy(resize_flow(flow, model.config.input_hw))[None] / normalization.flow_std_px
+            channels = torch.from_numpy(resize_flow(flow, model.config.input_hw, cx_px))[None] / normalization.flow_std_px
             if model.config.stack > 1:
                 channels = channels.repeat(1, model.config.stack, 1, 1)
             motion = normalization.denormalize(model(channels).numpy().astype(np.float64))

@@ -20,8 +20,21 @@ from flowvo.geometry import mirror_targets, planar_targets, relative_motions, se
 from flowvo.progress import progress
 
 
-def resize_flow(flow_px: np.ndarray, input_hw: tuple[int, int]) -> np.ndarray:
-    """Flow (H, W, 2) -> (2, h, w) float32 at the network input size, values rescaled with the size."""
+def centre_on_principal_point(flow_px: np.ndarray, cx_px: float) -> np.ndarray:
+    """Crop columns so the principal point is the centre column: then flipping the field left-right is
+    the true mirror image of the scene (with KITTI's cx, 1 % of the width left of centre, a plain flip
+    would move the focus of expansion and bias the heading by ~5e-4 rad per frame)."""
+    width = flow_px.shape[1]
+    if cx_px <= (width - 1) / 2:
+        return flow_px[:, : int(round(2 * cx_px)) + 1]
+    return flow_px[:, int(round(2 * cx_px)) - (width - 1) :]
+
+
+def resize_flow(flow_px: np.ndarray, input_hw: tuple[int, int], cx_px: float | None = None) -> np.ndarray:
+    """Flow (H, W, 2) -> (2, h, w) float32 at the network input size, values rescaled with the size;
+    first centred on the principal point column ``cx_px`` when given."""
+    if cx_px is not None:
+        flow_px = centre_on_principal_point(flow_px, cx_px)
     h, w = input_hw
     resized = cv2.resize(flow_px, (w, h), interpolation=cv2.INTER_AREA)
     resized[..., 0] *= w / flow_px.shape[1]
@@ -29,14 +42,21 @@ def resize_flow(flow_px: np.ndarray, input_hw: tuple[int, int]) -> np.ndarray:
     return resized.transpose(2, 0, 1)
 
 
+def flow_principal_point_x(cache: FlowCache) -> float:
+    """The principal point's column in pixels of the cached flow."""
+    return float(cache.sequence.calibration.K0[0, 2]) * cache.flow_size_hw[1] / cache.sequence.image_size_hw[1]
+
+
 def load_network_flows(cache: FlowCache, input_hw: tuple[int, int], label: str = "") -> torch.Tensor:
-    """Every flow of a complete cache at the input size, float16 (N, 2, h, w)."""
+    """Every flow of a complete cache, centred on the principal point and at the input size, float16
+    (N, 2, h, w)."""
+    cx_px = flow_principal_point_x(cache)
     out = torch.empty((cache.n_pairs, 2, *input_hw), dtype=torch.float16)
     chunks = range(0, cache.n_pairs, CHUNK_PAIRS)
     for first in progress(chunks, f"load flow {label}", len(chunks), "chunk"):
         last = min(first + CHUNK_PAIRS, cache.n_pairs)
         for k, flow in enumerate(cache.read_range(first, last)):
-            out[first + k] = torch.from_numpy(resize_flow(flow, input_hw))
+            out[first + k] = torch.from_numpy(resize_flow(flow, input_hw, cx_px))
     return out
 
 
