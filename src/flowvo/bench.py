@@ -41,7 +41,8 @@ def _time_learned(sequence: KittiSequence, frames: int, model_path: Path, flow_m
             t1 = time.perf_counter()
             flow = estimator.estimate(previous, current)
             t2 = time.perf_counter()
-            channels = torch.from_numpy(resize_flow(flow, model.config.input_hw, cx_px))[None] / normalization.flow_std_px
+            channels = torch.from_numpy(resize_flow(flow, model.config.input_hw, cx_px))[None]
+            channels = channels / normalization.flow_std_px
             if model.config.stack > 1:
                 channels = channels.repeat(1, model.config.stack, 1, 1)
             motion = normalization.denormalize(model(channels).numpy().astype(np.float64))
