@@ -20,6 +20,7 @@ from flowvo.geometry import chain_planar, chain_se3, se3_from_targets
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.model.checkpoint import load_model
 from flowvo.model.data import resize_flow
+from flowvo.model.inference import predict_batch
 from flowvo.pipeline import _matching_flow_scale
 
 STAGES = ("image_read", "flow", "network", "chaining")
@@ -45,7 +46,7 @@ def _time_learned(sequence: KittiSequence, frames: int, model_path: Path, flow_m
             channels = channels / normalization.flow_std_px
             if model.config.stack > 1:
                 channels = channels.repeat(1, model.config.stack, 1, 1)
-            motion = normalization.denormalize(model(channels).numpy().astype(np.float64))
+            motion = predict_batch(model, normalization, channels)
             t3 = time.perf_counter()
             if model.config.head == "planar":
                 pose = chain_planar(motion, pose)[-1]
