@@ -14,6 +14,13 @@ from pathlib import Path
 from typing import IO, Any
 
 
+def _default_permissions(path: str) -> None:
+    """mkstemp creates files readable by the owner only; give them the usual umask-based mode."""
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(path, 0o666 & ~umask)
+
+
 @contextmanager
 def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
     """Open a temporary file for writing that replaces ``path`` only when the block succeeds."""
@@ -25,6 +32,7 @@ def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
             yield handle
             handle.flush()
             os.fsync(handle.fileno())
+        _default_permissions(tmp_name)
         os.replace(tmp_name, target)
     except BaseException:
         if os.path.exists(tmp_name):
@@ -55,6 +63,7 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     os.close(fd)
     try:
         yield Path(tmp_name)
+        _default_permissions(tmp_name)
         os.replace(tmp_name, target)
     except BaseException:
         if os.path.exists(tmp_name):
