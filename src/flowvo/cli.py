@@ -39,7 +39,7 @@ def _cmd_synth(args: argparse.Namespace) -> int:
     from flowvo.synth.dataset import synthesize
 
     folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
-                         args.scene, args.gt_flow, args.workers)
+                         args.scene, args.gt_flow, args.workers, args.max_speed)
     for folder in folders:
         print(f"wrote {folder} (synthetic)")
     return 0
@@ -58,6 +58,7 @@ def _add_synth(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scene", choices=SCENE_TYPES, help="one scene type throughout (default: varied stretches)")
     p.add_argument("--gt-flow", action="store_true", help="also write true forward flow to flow_gt/NNNNNN.npy")
     p.add_argument("--workers", type=int, help="render processes (default: all cores, at most 8)")
+    p.add_argument("--max-speed", type=float, default=25.0, help="generated paths: top speed in m/s")
     p.set_defaults(func=_cmd_synth)
 
 

@@ -14,6 +14,7 @@ from flowvo.synth.dataset import synthesize
 DEMO_SEED = 2026  # the packaged model's training worlds use seed 0: this world and path are unseen
 DEMO_FRAMES = 900
 DEMO_SCALE = 0.5
+DEMO_MAX_SPEED_MPS = 15.0  # an urban drive, like the KITTI trajectories the packaged model learned from
 
 
 def packaged_model_path() -> Path:
@@ -30,7 +31,7 @@ def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence
     out = Path(out)
     if data is None:
         data, sequence = out / "data", "00"
-        synthesize(data, [sequence], seed=DEMO_SEED, frames=frames, scale=DEMO_SCALE)
+        synthesize(data, [sequence], seed=DEMO_SEED, frames=frames, scale=DEMO_SCALE, max_speed_mps=DEMO_MAX_SPEED_MPS)
     elif sequence is None:
         raise FlowvoError("with --data, also give --sequence NN")
     model = Path(model) if model else packaged_model_path()
