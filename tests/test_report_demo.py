@@ -55,6 +55,13 @@ def test_classical_baseline_with_gt_scale_tracks_the_synthetic_drive(classical_r
     assert set(timing["seconds_per_frame"]) == {"image_read", "flow", "network", "chaining", "total"}
 
 
+def test_bench_prints_the_timing_table(classical_runs, capsys):
+    root, _ = classical_runs
+    assert main(["bench", "--data", str(root), "--sequence", "00", "--frames", "12", "--repeat", "2"]) == 0
+    table = capsys.readouterr().out
+    assert "flowvo (dis-medium + CNN)" in table and "classical VO" in table and "0.633" in table
+
+
 def test_report_refuses_a_folder_that_is_not_a_run(tmp_path, capsys):
     assert main(["report", str(tmp_path), "--out", str(tmp_path / "r")]) == 2
     assert "not a flowvo run folder (no run.json)" in capsys.readouterr().err

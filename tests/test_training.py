@@ -58,6 +58,7 @@ def test_train_and_run_from_the_cli(tiny_data, tmp_path, capsys):
     config = tiny_config(tiny_data, tmp_path / "run", epochs=1)
     config.save_yaml(tmp_path / "c.yaml")
     assert main(["train", "--config", str(tmp_path / "c.yaml"), "-q"]) == 0
+    assert "M parameters" in capsys.readouterr().out
     assert main(["run", "--data", str(tiny_data), "--sequence", "02", "--model", str(tmp_path / "run/best.pt"),
                  "--out", str(tmp_path / "out"), "--median", "3", "-q"]) == 0
     printed = capsys.readouterr().out

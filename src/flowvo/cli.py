@@ -126,6 +126,12 @@ def _cmd_train(args: argparse.Namespace) -> int:
         config.model.stack = args.stack
     if not config.data:
         raise FlowvoError("no data: give --data ROOT or 'data:' in the config")
+    from flowvo.model.network import OdometryNet, flops_per_frame, parameter_count
+
+    network = OdometryNet(config.model)
+    print(f"model: width {config.model.width}, input {config.model.input_hw[1]}x{config.model.input_hw[0]}, "
+          f"head {config.model.head}, stack {config.model.stack}: {parameter_count(network) / 1e6:.2f} M parameters, "
+          f"{flops_per_frame(network) / 1e9:.3f} GFLOP per frame")
     out = train(config, resume=args.resume)
     print(f"training finished: {out}/best.pt, log {out}/log.csv, curve {out}/learning_curve.png")
     return 0
