@@ -137,7 +137,8 @@ STYLE = """body{font-family:sans-serif;max-width:1100px;margin:2em auto;color:#2
 table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}
 td:first-child,th:first-child{text-align:left}tr.avg{font-weight:bold;background:#eef}
 tr.ref{font-style:italic;background:#f6f6f6}img{max-width:100%;border:1px solid #ddd}
-.note{background:#fff6d5;padding:8px;border-left:4px solid #e0b000}figure{margin:1em 0}"""
+.note{background:#fff6d5;padding:8px;border-left:4px solid #e0b000}
+figure{display:inline-block;vertical-align:top;width:48%;margin:0.5em 1%}figure.wide{width:70%}"""
 
 
 def write_report(run_folders: list[str | Path], out_dir: str | Path) -> Path:
@@ -173,8 +174,9 @@ def write_report(run_folders: list[str | Path], out_dir: str | Path) -> Path:
         "filled; its network time is batched inference. Speed-ups divide the reference system's 0.633 s/frame "
         "(GPU) and the same sequence's first classical run by each method's total.</p>",
         "<h2>Figures</h2>",
-        *(f"<figure><img src='{name}' alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}"
-          "</figcaption></figure>" for name, caption in figures),
+        *(f"<figure{' class=wide' if name.startswith('path_') else ''}><img src='{name}' "
+          f"alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}</figcaption></figure>"
+          for name, caption in figures),
         f"<script type='application/json' id='results'>{json.dumps(records)}</script>",
     ]
     page = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>flowvo report</title>"
