@@ -21,7 +21,7 @@ from flowvo.kitti.sequence import KittiSequence
 from flowvo.model.checkpoint import load_model
 from flowvo.model.data import resize_flow
 from flowvo.model.inference import predict_batch
-from flowvo.pipeline import _matching_flow_scale
+from flowvo.pipeline import matching_flow_scale
 
 STAGES = ("image_read", "flow", "network", "chaining")
 
@@ -29,7 +29,7 @@ STAGES = ("image_read", "flow", "network", "chaining")
 def _time_learned(sequence: KittiSequence, frames: int, model_path: Path, flow_method: str | None) -> dict:
     model, normalization, state = load_model(model_path)
     method = flow_method or state["train_config"]["flow_method"]
-    scale = _matching_flow_scale(sequence, state)
+    scale = matching_flow_scale(sequence, state)
     estimator = create_estimator(method)
     seconds = dict.fromkeys(STAGES, 0.0)
     pose = np.eye(4)

@@ -7,6 +7,7 @@ from importlib import resources
 from pathlib import Path
 
 from flowvo.errors import FlowvoError
+from flowvo.kitti.sequence import KittiSequence
 from flowvo.pipeline import RunOptions, run
 from flowvo.report import write_report
 from flowvo.synth.dataset import synthesize
@@ -37,8 +38,6 @@ def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence
     model = Path(model) if model else packaged_model_path()
     runs = [run(RunOptions(data=str(data), sequence=sequence, out=str(out / "learned"), model=str(model),
                            flow_cache=str(out / "flow_cache")))]
-    from flowvo.kitti.sequence import KittiSequence
-
     has_gt = KittiSequence(data, sequence).has_poses
     scale_sources = ("gt", "height") if has_gt else ("height",)
     for source in scale_sources:

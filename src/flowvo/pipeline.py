@@ -15,6 +15,7 @@ import torch
 
 from flowvo.atomic import write_json_atomic
 from flowvo.classical_vo import classical_motions
+from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.flow.cache import FlowCache
 from flowvo.flow.registry import create_estimator
@@ -90,14 +91,12 @@ def run(options: RunOptions) -> dict:
 
 def _run_learned(sequence: KittiSequence, options: RunOptions):
     if options.model is None:
-        from flowvo.errors import FlowvoError
-
         raise FlowvoError("the learned method needs --model CHECKPOINT (or use the packaged default via demo)")
     model, normalization, state = load_model(options.model)
     model.to(options.device)
     trained = state.get("train_config", {})
     flow_method = options.flow_method or trained.get("flow_method", "dis-medium")
-    flow_scale = options.flow_scale or _matching_flow_scale(sequence, state)
+    flow_scale = options.flow_scale or matching_flow_scale(sequence, state)
     estimator = create_estimator(flow_method, options.flow_weights, options.device)
     cache = FlowCache(options.flow_cache or f"{options.data}/flow_cache", sequence, flow_method, flow_scale,
                       estimator.params())
@@ -124,7 +123,7 @@ def _run_learned(sequence: KittiSequence, options: RunOptions):
     return poses, timing, details
 
 
-def _matching_flow_scale(sequence: KittiSequence, state: dict) -> float:
+def matching_flow_scale(sequence: KittiSequence, state: dict) -> float:
     """Working scale that gives this sequence the flow width the model was trained on (so a model
     trained on half-resolution synthetic frames runs on full-resolution KITTI frames at scale 0.5)."""
     trained_hw = state.get("flow_size_hw")

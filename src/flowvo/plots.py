@@ -55,7 +55,7 @@ def plot_error_curves(curves: dict[str, list[dict]], key: str, xlabel: str, stem
     return written
 
 
-def plot_frame_error_histograms(frame_errors: dict[str, dict[str, np.ndarray]], out: Path) -> Path:
+def plot_frame_error_histograms(frame_errors: dict[str, dict[str, np.ndarray]], path: Path) -> Path:
     """Histograms of per-frame translation error (m) and rotation error (deg), one series per method."""
     figure, axes = plt.subplots(1, 2, figsize=(10, 3.8))
     for name, errors in frame_errors.items():
@@ -67,7 +67,7 @@ def plot_frame_error_histograms(frame_errors: dict[str, dict[str, np.ndarray]], 
         axis.set_ylabel("frames")
         axis.legend(loc="best")
         axis.grid(alpha=0.3)
-    return _save(figure, out / "frame_error_histograms.png")
+    return _save(figure, path)
 
 
 def save_evaluation_plots(evaluation, out: Path, name: str = "prediction") -> list[Path]:
@@ -82,5 +82,5 @@ def save_evaluation_plots(evaluation, out: Path, name: str = "prediction") -> li
     ]
     written += plot_error_curves({name: evaluation.metrics["per_length"]}, "length_m", "path length [m]", "length", out)
     written += plot_error_curves({name: evaluation.metrics["per_speed"]}, "speed_mps", "speed [m/s]", "speed", out)
-    written.append(plot_frame_error_histograms({name: evaluation.frame_errors}, out))
+    written.append(plot_frame_error_histograms({name: evaluation.frame_errors}, out / "frame_error_histograms.png"))
     return written

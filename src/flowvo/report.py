@@ -126,10 +126,8 @@ def _figures(runs: list[RunRecord], out: Path) -> list[tuple[str, str]]:
             for written in plots.plot_error_curves(curves, x_key, label, f"{stem}_{sequence}", out):
                 figures.append((written.name, f"Sequence {sequence}: {written.stem.replace('_', ' ')}"))
         histogram = plots.plot_frame_error_histograms({r.summary["label"]: r.evaluation.frame_errors for r in mine},
-                                                       out)
-        renamed = histogram.with_name(f"frame_errors_{sequence}.png")
-        histogram.replace(renamed)
-        figures.append((renamed.name, f"Sequence {sequence}: per-frame translation (m) and rotation (deg) errors"))
+                                                       out / f"frame_errors_{sequence}.png")
+        figures.append((histogram.name, f"Sequence {sequence}: per-frame translation (m) and rotation (deg) errors"))
     return figures
 
 

@@ -109,9 +109,10 @@ def stacked_input(flows: torch.Tensor, pair: int, stack: int) -> torch.Tensor:
 
 
 def mirror_input(channels: torch.Tensor) -> torch.Tensor:
-    """Left-right mirrored flow channels (2K, h, w): flip the width axis and negate every u channel."""
-    mirrored = torch.flip(channels, dims=[-1]).clone()
-    mirrored[0::2] = -mirrored[0::2]
+    """Left-right mirrored flow channels (..., 2K, h, w), one sample or a batch: flip the width axis and
+    negate every u channel."""
+    mirrored = torch.flip(channels, dims=[-1])
+    mirrored[..., 0::2, :, :] *= -1
     return mirrored
 
 

@@ -23,7 +23,7 @@ def predict_batch(model: OdometryNet, normalization: Normalization, inputs: torc
     model.eval()
     if not symmetric:
         return normalization.denormalize(model(inputs).cpu().numpy().astype(np.float64))
-    both = model(torch.cat([inputs, torch.stack([mirror_input(x) for x in inputs])]))
+    both = model(torch.cat([inputs, mirror_input(inputs)]))
     both = normalization.denormalize(both.cpu().numpy().astype(np.float64))
     direct, mirrored = both[: len(inputs)], both[len(inputs) :]
     return 0.5 * (direct + mirror_targets(mirrored, model.config.head))

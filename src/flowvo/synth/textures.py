@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from flowvo.synth.sampling import sample_points
+
 TEXTURE_SIZE = 512
-_REMAP_COLS = 1024  # OpenCV's remap needs destination sides below 32767, so long pixel lists are folded
 
 
 def band_limited_noise(rng: np.random.Generator, size: int, exponent: float, low_cut: float = 2.0) -> np.ndarray:
@@ -64,20 +65,8 @@ class Texture:
         image = self.levels[level]
         size = image.shape[0]
         scale = size / (TEXTURE_SIZE * self.texel_m)
-        n = len(s_m)
-        rows = -(-n // _REMAP_COLS)
-        map_x = np.zeros(rows * _REMAP_COLS, np.float32)
-        map_y = np.zeros(rows * _REMAP_COLS, np.float32)
-        map_x[:n] = np.mod(s_m * scale, size)
-        map_y[:n] = np.mod(t_m * scale, size)
-        sampled = cv2.remap(
-            image,
-            map_x.reshape(rows, _REMAP_COLS),
-            map_y.reshape(rows, _REMAP_COLS),
-            cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_WRAP,
-        )
-        return sampled.ravel()[:n]
+        return sample_points(image, np.mod(s_m * scale, size), np.mod(t_m * scale, size),
+                             border_mode=cv2.BORDER_WRAP)
 
 
 def make_textures(seed: int) -> dict[str, Texture]:

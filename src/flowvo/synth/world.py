@@ -12,6 +12,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from flowvo.synth.sampling import sample_points
+
 CAMERA_HEIGHT_M = 1.65
 GRID_RESOLUTION_M = 0.5
 GRID_MARGIN_M = 160.0
@@ -60,22 +62,7 @@ class World:
     def lookup(self, grid: np.ndarray, x: np.ndarray, z: np.ndarray, nearest: bool = False) -> np.ndarray:
         """Bilinear (or nearest) lookup of a grid at world points, clamped at the border."""
         col, row = self.grid_coords(x, z)
-        shape = col.shape
-        flat_c, flat_r = col.reshape(-1), row.reshape(-1)
-        n = flat_c.size
-        cols = 1024
-        rows = max(1, -(-n // cols))
-        map_c = np.zeros(rows * cols, np.float32)
-        map_r = np.zeros(rows * cols, np.float32)
-        map_c[:n], map_r[:n] = flat_c, flat_r
-        out = cv2.remap(
-            grid,
-            map_c.reshape(rows, cols),
-            map_r.reshape(rows, cols),
-            cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR,
-            borderMode=cv2.BORDER_REPLICATE,
-        )
-        return out.reshape(-1)[:n].reshape(shape)
+        return sample_points(grid, col, row, cv2.INTER_NEAREST if nearest else cv2.INTER_LINEAR)
 
 
 def scene_schedule(seed: int, length_m: float, scene: str | None) -> tuple[np.ndarray, np.ndarray]:
