@@ -75,3 +75,11 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
     assert "report:" in printed and "synthetic" in printed
     page = (tmp_path / "report" / "index.html").read_text()
     assert "flowvo (dis-medium + CNN)" in page and "classical VO" in page
+    seconds = r"\d+\.\d{4}"
+
+    def network_cell(method: str) -> str:  # the timing table's network column for the method's row
+        found = re.search(rf"<tr><td>{method}[^<]*</td><td>\d+</td>(?:<td>{seconds}</td>){{2}}<td>([^<]*)</td>", page)
+        return found.group(1) if found else "row not found"
+
+    assert re.fullmatch(seconds, network_cell("flowvo"))
+    assert network_cell("classical VO") == "-"  # it has no network stage

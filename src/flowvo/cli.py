@@ -142,7 +142,9 @@ def _add_train(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--config", help="YAML with TrainConfig fields (flags below override it)")
     p.add_argument("--data", help="dataset root (KITTI layout, real or synthetic)")
     p.add_argument("--out", help="run folder (default runs/train)")
-    p.add_argument("--split", choices=("kitti",), help="preset split: kitti = train 00-07, validate 08-10")
+    p.add_argument("--split", choices=("kitti",),
+                   help="preset split: kitti = train 00-07, validate 08-10 (the reference split has no "
+                        "separate validation set: epoch selection then sees the test sequences)")
     p.add_argument("--train", nargs="+", help="training sequences")
     p.add_argument("--val", nargs="+", help="validation sequences")
     p.add_argument("--epochs", type=int)

@@ -31,7 +31,7 @@ def plot_paths(paths: dict[str, np.ndarray], gt_positions: np.ndarray, title: st
     axis.set_ylabel("z [m]")
     axis.set_aspect("equal", adjustable="datalim")
     axis.grid(alpha=0.3)
-    axis.legend(loc="best")
+    axis.legend(loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=2, fontsize="small")  # off the paths
     axis.set_title(title)
     return _save(figure, path)
 
@@ -56,17 +56,26 @@ def plot_error_curves(curves: dict[str, list[dict]], key: str, xlabel: str, stem
 
 
 def plot_frame_error_histograms(frame_errors: dict[str, dict[str, np.ndarray]], path: Path) -> Path:
-    """Histograms of per-frame translation error (m) and rotation error (deg), one series per method."""
+    """Histograms of per-frame translation error (m) and rotation error (deg), one outline per method.
+
+    All methods share bins from 0 to the 99th percentile of their pooled errors; larger errors are counted
+    in the last bin, so long tails neither vanish nor squash the bulk.
+    """
     figure, axes = plt.subplots(1, 2, figsize=(10, 3.8))
-    for name, errors in frame_errors.items():
-        axes[0].hist(errors["translation_error_m"], bins=50, alpha=0.6, label=name)
-        axes[1].hist(errors["rotation_error_deg"], bins=50, alpha=0.6, label=name)
-    axes[0].set_xlabel("per-frame translation error [m]")
-    axes[1].set_xlabel("per-frame rotation error [deg]")
-    for axis in axes:
+    panels = (("translation_error_m", "per-frame translation error [m]"),
+              ("rotation_error_deg", "per-frame rotation error [deg]"))
+    for axis, (key, label) in zip(axes, panels, strict=True):
+        pooled = np.concatenate([errors[key] for errors in frame_errors.values()])
+        top = float(np.percentile(pooled, 99)) if len(pooled) else 1.0
+        bins = np.linspace(0.0, top if top > 0 else 1.0, 41)
+        for name, errors in frame_errors.items():
+            axis.hist(np.minimum(errors[key], bins[-1]), bins=bins, histtype="step", lw=1.8, label=name)
+        axis.set_xlabel(label)
         axis.set_ylabel("frames")
-        axis.legend(loc="best")
         axis.grid(alpha=0.3)
+    handles, names = axes[0].get_legend_handles_labels()
+    figure.legend(handles, names, loc="upper center", bbox_to_anchor=(0.5, 0.0), ncol=2, fontsize="small",
+                  title="last bin: errors at or above the 99th percentile", title_fontsize="small")
     return _save(figure, path)
 
 

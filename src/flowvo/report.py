@@ -97,8 +97,9 @@ def _timing_table(runs: list[RunRecord]) -> str:
         spf = run.timing["seconds_per_frame"]
         baseline_total = baseline_totals.get(run.summary["sequence"])
         versus_base = f"{baseline_total / spf['total']:.1f}x" if baseline_total and spf["total"] else "n/a"
+        network = f"{spf['network']:.4f}" if run.summary.get("method") != "classical" else "-"  # has none
         rows.append(f"<tr><td>{html.escape(run.summary['label'])}</td><td>{run.summary['sequence']}</td>"
-                    f"<td>{spf['image_read']:.4f}</td><td>{spf['flow']:.4f}</td><td>{spf['network']:.4f}</td>"
+                    f"<td>{spf['image_read']:.4f}</td><td>{spf['flow']:.4f}</td><td>{network}</td>"
                     f"<td>{spf['total']:.4f}</td><td>{REFERENCE_SECONDS_PER_FRAME / spf['total']:.1f}x</td>"
                     f"<td>{versus_base}</td></tr>")
     rows.append(f"<tr class='ref'><td>{REFERENCE_LABEL} (GPU)</td><td>08-10</td><td></td><td></td><td></td>"
@@ -172,7 +173,7 @@ def write_report(run_folders: list[str | Path], out_dir: str | Path) -> Path:
         "filled; its network time is batched inference. Speed-ups divide the reference system's 0.633 s/frame "
         "(GPU) and the same sequence's first classical run by each method's total.</p>",
         "<h2>Figures</h2>",
-        *(f"<figure{' class=wide' if name.startswith('path_') else ''}><img src='{name}' "
+        *(f"<figure{' class=wide' if name.startswith(('path_', 'frame_errors_')) else ''}><img src='{name}' "
           f"alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}</figcaption></figure>"
           for name, caption in figures),
         f"<script type='application/json' id='results'>{json.dumps(records)}</script>",

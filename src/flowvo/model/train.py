@@ -175,7 +175,7 @@ def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | No
     if rank == 0 and history:
         from flowvo.model.learning_curve import plot_learning_curve
 
-        plot_learning_curve(history, out / "learning_curve.png")
+        plot_learning_curve(history, out / "learning_curve.png", config.val_sequences)
     if world > 1:
         dist.barrier()
         dist.destroy_process_group()
