@@ -60,6 +60,8 @@ def test_bench_prints_the_timing_table(classical_runs, capsys):
     assert main(["bench", "--data", str(root), "--sequence", "00", "--frames", "12", "--repeat", "2"]) == 0
     table = capsys.readouterr().out
     assert "flowvo (dis-medium + CNN)" in table and "classical VO" in table and "0.633" in table
+    classical = next(line for line in table.splitlines() if line.startswith("classical VO"))
+    assert classical[40:].split()[2] == "-"  # read, flow, then no network stage
 
 
 def test_report_refuses_a_folder_that_is_not_a_run(tmp_path, capsys):

@@ -22,6 +22,7 @@ from flowvo.model.checkpoint import load_model
 from flowvo.model.data import resize_flow
 from flowvo.model.inference import predict_batch
 from flowvo.pipeline import matching_flow_scale
+from flowvo.report import stage_seconds_text
 
 STAGES = ("image_read", "flow", "network", "chaining")
 
@@ -96,7 +97,7 @@ def benchmark(data: str | Path, sequence_name: str, methods: list[str], frames: 
                                           flow_method))
             else:
                 runs.append(_time_classical(sequence, frames))
-        row = {"label": runs[0]["label"], "frames": frames, "repeats": repeat}
+        row = {"label": runs[0]["label"], "method": method, "frames": frames, "repeats": repeat}
         for stage in STAGES:
             row[stage] = float(np.median([r[stage] for r in runs]))
         row["total"] = float(np.median([sum(r[s] for s in STAGES) for r in runs]))
@@ -110,7 +111,8 @@ def format_bench_table(rows: list[dict], reference_seconds: float = 0.633) -> st
     header = f"{'method':40s} " + " ".join(f"{n:>8s}" for n in names) + f" {'fps':>7s} {'vs ref':>7s}"
     lines = [header, "-" * len(header)]
     for row in rows:
-        lines.append(f"{row['label']:40s} {row['image_read']:8.4f} {row['flow']:8.4f} {row['network']:8.4f} "
+        network = stage_seconds_text(row["method"], "network", row["network"])
+        lines.append(f"{row['label']:40s} {row['image_read']:8.4f} {row['flow']:8.4f} {network:>8s} "
                      f"{row['chaining']:8.5f} {row['total']:8.4f} {1 / row['total']:7.1f} "
                      f"{reference_seconds / row['total']:6.1f}x")
     lines.append(f"{'reference system (2016), published, GPU':40s} {'':8s} {'':8s} {'':8s} {'':8s} "

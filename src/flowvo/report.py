@@ -87,6 +87,11 @@ def _results_table(runs: list[RunRecord]) -> tuple[str, list[dict]]:
     return f"<table>{header}{''.join(rows)}</table>", records
 
 
+def stage_seconds_text(method: str, stage: str, seconds: float) -> str:
+    """Seconds per frame to 4 decimals, or "-" for a stage the method does not have (classical VO: network)."""
+    return "-" if (method, stage) == ("classical", "network") else f"{seconds:.4f}"
+
+
 def _timing_table(runs: list[RunRecord]) -> str:
     baseline_totals: dict[str, float] = {}  # per sequence: the first classical run given
     for run in runs:
@@ -97,9 +102,9 @@ def _timing_table(runs: list[RunRecord]) -> str:
         spf = run.timing["seconds_per_frame"]
         baseline_total = baseline_totals.get(run.summary["sequence"])
         versus_base = f"{baseline_total / spf['total']:.1f}x" if baseline_total and spf["total"] else "n/a"
-        network = f"{spf['network']:.4f}" if run.summary.get("method") != "classical" else "-"  # has none
         rows.append(f"<tr><td>{html.escape(run.summary['label'])}</td><td>{run.summary['sequence']}</td>"
-                    f"<td>{spf['image_read']:.4f}</td><td>{spf['flow']:.4f}</td><td>{network}</td>"
+                    f"<td>{spf['image_read']:.4f}</td><td>{spf['flow']:.4f}</td>"
+                    f"<td>{stage_seconds_text(run.summary.get('method', ''), 'network', spf['network'])}</td>"
                     f"<td>{spf['total']:.4f}</td><td>{REFERENCE_SECONDS_PER_FRAME / spf['total']:.1f}x</td>"
                     f"<td>{versus_base}</td></tr>")
     rows.append(f"<tr class='ref'><td>{REFERENCE_LABEL} (GPU)</td><td>08-10</td><td></td><td></td><td></td>"

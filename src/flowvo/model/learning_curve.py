@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import matplotlib
@@ -13,8 +12,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 from flowvo.atomic import atomic_path  # noqa: E402
 
 
-def plot_learning_curve(history: list[dict], path: str | Path, val_sequences: list[str] | None = None) -> Path:
-    """Two panels: losses (log scale) and validation t_err (%) against epoch, the best epoch marked."""
+def plot_learning_curve(history: list[dict], path: str | Path, best_epoch: int,
+                        val_sequences: list[str] | None = None) -> Path:
+    """Two panels: losses (log scale) and validation t_err (%) against epoch, ``best_epoch`` (best.pt) marked."""
     epochs = [row["epoch"] for row in history]
     figure, (left, right) = plt.subplots(1, 2, figsize=(10, 3.8))
     left.plot(epochs, [row["train_loss"] for row in history], "o-", label="train loss")
@@ -24,13 +24,11 @@ def plot_learning_curve(history: list[dict], path: str | Path, val_sequences: li
     left.set_ylabel("MSE of normalised targets")
     left.legend()
     left.grid(alpha=0.3)
-    t_errs = [row["val_t_err_percent"] for row in history]
-    right.plot(epochs, t_errs, "o-", color="C2")
-    scored = [(t, e) for t, e in zip(t_errs, epochs, strict=True) if not math.isnan(t)]
-    if scored:
-        best_t, best_epoch = min(scored)
-        right.plot([best_epoch], [best_t], "*", color="C3", markersize=16, label=f"best.pt (epoch {best_epoch})")
-        right.legend()
+    right.plot(epochs, [row["val_t_err_percent"] for row in history], "o-", color="C2")
+    best = next(row for row in history if row["epoch"] == best_epoch)
+    right.plot([best_epoch], [best["val_t_err_percent"]], "*", color="C3", markersize=16,
+               label=f"best.pt (epoch {best_epoch})")
+    right.legend()
     right.set_xlabel("epoch")
     on = f" on {' '.join(val_sequences)}" if val_sequences else ""
     right.set_ylabel(f"validation KITTI t_err{on} [%]")

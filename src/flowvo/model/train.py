@@ -85,6 +85,11 @@ def _validation_metrics(model, normalization, flows, poses, config) -> dict:
     return result
 
 
+def _selection_score(row: dict) -> float:
+    """What best.pt minimises: validation t_err (%), or the validation loss where no segment exists."""
+    return row["val_t_err_percent"] if not math.isnan(row["val_t_err_percent"]) else row["val_loss"]
+
+
 def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | None = None) -> Path:
     """Train and return the folder holding ``best.pt``, ``last.pt``, ``log.csv`` and ``config.yaml``.
 
@@ -155,7 +160,7 @@ def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | No
         row = {"epoch": epoch + 1, "train_loss": total / max(count, 1),
                **_validation_metrics(model, normalization, val_flows, val_poses, config),
                "lr": optimizer.param_groups[0]["lr"], "seconds": time.perf_counter() - started}
-        score = row["val_t_err_percent"] if not math.isnan(row["val_t_err_percent"]) else row["val_loss"]
+        score = _selection_score(row)
         improved = score < best
         best, bad_epochs = (score, 0) if improved else (best, bad_epochs + 1)
         history.append(row)
@@ -175,7 +180,8 @@ def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | No
     if rank == 0 and history:
         from flowvo.model.learning_curve import plot_learning_curve
 
-        plot_learning_curve(history, out / "learning_curve.png", config.val_sequences)
+        best_epoch = min(history, key=_selection_score)["epoch"]  # the first best, as best.pt keeps
+        plot_learning_curve(history, out / "learning_curve.png", best_epoch, config.val_sequences)
     if world > 1:
         dist.barrier()
         dist.destroy_process_group()
