@@ -9,7 +9,7 @@ import numpy as np
 
 from flowvo.errors import FlowvoError
 
-REQUIRED_KEYS = ("P0", "P1", "P2", "P3")
+REQUIRED_KEYS = ("P0",)
 
 
 @dataclass(frozen=True)
@@ -26,11 +26,14 @@ class Calibration:
     @property
     def baseline_m(self) -> float:
         """Stereo baseline between cameras 0 and 1 in metres, from ``P1[0, 3] = -fx * b``."""
+        if "P1" not in self.matrices:
+            raise FlowvoError("calibration has no P1 (monocular): no stereo baseline")
         return float(-self.matrices["P1"][0, 3] / self.matrices["P1"][0, 0])
 
 
 def read_calibration(path: str | Path) -> Calibration:
-    """Parse ``calib.txt``; every line is ``NAME: 12 floats``; P0..P3 are required."""
+    """Parse ``calib.txt``; every line is ``NAME: 12 floats``; only P0 (the left grey camera) is required,
+    as monocular tools write it."""
     path = Path(path)
     if not path.is_file():
         raise FlowvoError("calibration file not found", path)
