@@ -63,31 +63,42 @@ def ground_height_unit(points_prev, points_next, T_prev_next, K, image_hw) -> fl
     return float(np.median(X[:, 1]))  # road points: y (down) is the height below the camera
 
 
-def classical_motions(frames, K: np.ndarray, step_lengths_m: np.ndarray | None) -> np.ndarray:
-    """Relative motions (N-1, 4, 4) ``T_{i-1}^{-1} T_i`` of a frame iterator; metric scale from
-    ``step_lengths_m`` (GT protocol) or, when None, from the camera height."""
-    motions = []
-    previous = next(frames)
-    last_scale = 1.0
-    last_motion = np.eye(4)
-    for i, current in enumerate(frames):
-        p0, p1 = track_corners(previous, current)
+class ClassicalTracker:
+    """Streaming form of the baseline: ``start(first frame)``, then ``push(frame)`` returns the motion
+    ``T_prev_cur`` (4, 4); metric scale from ``step_lengths_m`` (GT protocol, step i = frame i -> i+1) or,
+    when None, from the camera height."""
+
+    def __init__(self, K: np.ndarray, step_lengths_m: np.ndarray | None) -> None:
+        self.K = K
+        self.step_lengths_m = step_lengths_m
+        self.previous: np.ndarray | None = None
+        self.index = 0
+        self.last_scale = 1.0
+        self.last_motion = np.eye(4)
+
+    def start(self, image: np.ndarray) -> None:
+        """The first frame."""
+        self.previous, self.index = image, 0
+
+    def push(self, current: np.ndarray) -> np.ndarray:
+        """Motion from the previous frame to ``current``."""
+        p0, p1 = track_corners(self.previous, current)
         still = len(p0) >= MIN_TRACKS and np.median(np.linalg.norm(p1 - p0, axis=1)) < STILL_FLOW_PX
-        result = None if still else relative_motion(p0, p1, K)
+        result = None if still else relative_motion(p0, p1, self.K)
         if result is None:
-            motion = np.eye(4) if still else last_motion
+            motion = np.eye(4) if still else self.last_motion
         else:
             motion, inliers = result
-            if step_lengths_m is not None:
-                scale = step_lengths_m[i]
+            if self.step_lengths_m is not None:
+                scale = self.step_lengths_m[self.index]
             else:
-                height = ground_height_unit(p0[inliers], p1[inliers], motion, K, previous.shape)
-                scale = CAMERA_HEIGHT_M / height if height and height > 1e-3 else last_scale
+                height = ground_height_unit(p0[inliers], p1[inliers], motion, self.K, self.previous.shape)
+                scale = CAMERA_HEIGHT_M / height if height and height > 1e-3 else self.last_scale
                 scale = float(np.clip(scale, 0.0, 4.0))
-                last_scale = scale
+                self.last_scale = scale
             motion = motion.copy()
             motion[:3, 3] *= scale
-        motions.append(motion)
-        last_motion = motion
-        previous = current
-    return np.stack(motions)
+        self.last_motion = motion
+        self.previous = current
+        self.index += 1
+        return motion

@@ -1,0 +1,151 @@
+"""Camera motion from a dense flow field: rotation and translation direction (essential matrix), and the
+metric step length from the road plane at a known camera height.
+
+Pure functions over NumPy arrays (OpenCV for the robust essential-matrix fit and triangulation).
+Frames: camera frame x right, y down, z forward; pixels of the frame the flow was computed at.
+Motions are ``T_next_prev`` as OpenCV's ``recoverPose`` returns them: a point X in the first camera's
+frame is ``R X + t`` in the second camera's frame.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+
+@dataclass(frozen=True)
+class FlowSamples:
+    """Where the flow is read: texture-rich points for the motion, a road band for the scale.
+
+    ``motion_px`` (M, 2) and ``road_px`` (R, 2) are pixel coordinates (x right, y down) in the flow frame.
+    """
+
+    motion_px: np.ndarray
+    road_px: np.ndarray
+
+
+def sample_points(image: np.ndarray, K: np.ndarray, motion_points: int = 1500, cell_px: int = 8,
+                  road_rows: tuple[float, float] = (0.10, 0.35), road_half_width: float = 0.2,
+                  road_step_px: int = 4) -> FlowSamples:
+    """Sample positions in ``image`` (H, W) uint8 at the flow's resolution.
+
+    Motion points: the strongest-gradient pixel of each ``cell_px`` cell (textured pixels have reliable
+    flow), the ``motion_points`` strongest cells kept. Road band: a regular grid of rows
+    ``cy + road_rows * H`` within ``road_half_width * W`` of the principal point column, where the road
+    ahead usually is (rows far below fail: the road there moves and stretches too much between frames).
+    """
+    h, w = image.shape
+    gx = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3)
+    magnitude = gx * gx + gy * gy
+    rows, cols = (h - 8) // cell_px, (w - 8) // cell_px
+    cells = magnitude[4 : 4 + rows * cell_px, 4 : 4 + cols * cell_px]
+    cells = cells.reshape(rows, cell_px, cols, cell_px).transpose(0, 2, 1, 3).reshape(rows, cols, -1)
+    best = cells.argmax(axis=2)
+    strength = np.take_along_axis(cells, best[..., None], axis=2)[..., 0]
+    order = np.argsort(strength, axis=None)[::-1][:motion_points]
+    r, c = np.unravel_index(order, strength.shape)
+    b = best[r, c]
+    motion = np.stack([4 + c * cell_px + b % cell_px, 4 + r * cell_px + b // cell_px], axis=1).astype(np.float32)
+    cx, cy = K[0, 2], K[1, 2]
+    top, bottom = int(cy + road_rows[0] * h), min(h - 4, int(cy + road_rows[1] * h))
+    left, right = max(4, int(cx - road_half_width * w)), min(w - 4, int(cx + road_half_width * w))
+    ys, xs = np.mgrid[top:bottom:road_step_px, left:right:road_step_px]
+    road = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float32)
+    return FlowSamples(motion, road)
+
+
+def follow_flow(points_px: np.ndarray, flow_px: np.ndarray) -> np.ndarray:
+    """Where integer-pixel ``points_px`` (N, 2) land in the next frame by ``flow_px`` (H, W, 2)."""
+    xs, ys = points_px[:, 0].astype(np.int64), points_px[:, 1].astype(np.int64)
+    return points_px + flow_px[ys, xs]
+
+
+@dataclass(frozen=True)
+class EssentialMotion:
+    """Rotation ``R_next_prev`` (3, 3), unit translation direction ``t_dir`` (3,) in the next frame,
+    and the inlier mask (N,) of the correspondences."""
+
+    R: np.ndarray
+    t_dir: np.ndarray
+    inliers: np.ndarray
+
+
+def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
+                     threshold_px: float = 0.5, min_inliers: int = 30) -> EssentialMotion | None:
+    """Motion up to scale from correspondences (N, 2) by RANSAC on the essential matrix; None when the
+    fit fails or keeps fewer than ``min_inliers`` points."""
+    if len(points_prev) < min_inliers:
+        return None
+    E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.RANSAC, 0.999, threshold_px)
+    if E is None or E.shape != (3, 3):
+        return None
+    count, R, t, mask = cv2.recoverPose(E, points_prev, points_next, K, mask=mask)
+    if count < min_inliers:
+        return None
+    return EssentialMotion(R, t[:, 0] / np.linalg.norm(t), mask[:, 0] > 0)
+
+
+def triangulate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
+                ) -> np.ndarray:
+    """3-D points (N, 3) in the first camera's frame, in units of the step length."""
+    P0 = K @ np.eye(3, 4)
+    P1 = K @ np.hstack([motion.R, motion.t_dir[:, None]])
+    X = cv2.triangulatePoints(P0, P1, points_prev.T.astype(np.float64), points_next.T.astype(np.float64))
+    return (X[:3] / X[3]).T
+
+
+def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float = 0.95,
+                   inlier_fraction_of_height: float = 0.03, seed: int = 0) -> tuple[float, np.ndarray] | None:
+    """Robust plane ``n . X = d`` through road points (N, 3) below the camera (y down).
+
+    RANSAC over point triples whose normal is within ``acos(min_normal_y)`` of the camera's down axis,
+    inliers within a fraction of the median height, then a least-squares refit. Returns the camera's
+    distance to the plane ``d`` (same units as the points) and the unit normal ``n`` (n_y > 0), or None.
+    """
+    points = points[(points[:, 2] > 0) & (points[:, 1] > 0)]
+    if len(points) < 20:
+        return None
+    rng = np.random.default_rng(seed)
+    triples = points[rng.integers(0, len(points), size=(iterations, 3))]
+    normals = np.cross(triples[:, 1] - triples[:, 0], triples[:, 2] - triples[:, 0])
+    norms = np.linalg.norm(normals, axis=1)
+    usable = norms > 1e-12
+    normals = normals[usable] / norms[usable, None]
+    normals *= np.sign(normals[:, 1:2] + 1e-12)
+    triples = triples[usable]
+    upright = normals[:, 1] >= min_normal_y
+    if not upright.any():
+        return None
+    normals, triples = normals[upright], triples[upright]
+    offsets = np.einsum("ij,ij->i", normals, triples[:, 0])
+    tolerance = inlier_fraction_of_height * float(np.median(points[:, 1]))
+    distances = np.abs(points @ normals.T - offsets)  # (N, hypotheses)
+    counts = (distances < tolerance).sum(axis=0)
+    best = int(counts.argmax())
+    inliers = points[distances[:, best] < tolerance]
+    if len(inliers) < 10:
+        return None
+    centre = inliers.mean(axis=0)
+    normal = np.linalg.svd(inliers - centre)[2][2]
+    normal = normal if normal[1] > 0 else -normal
+    return float(normal @ centre), normal
+
+
+def road_step_length_m(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                       camera_height_m: float) -> float | None:
+    """Metric length of the step from road correspondences: the camera height over the road plane's
+    distance in step units. None when no plane is found."""
+    plane = fit_road_plane(triangulate(points_prev, points_next, K, motion))
+    if plane is None or plane[0] <= 0:
+        return None
+    return camera_height_m / plane[0]
+
+
+def se3_next_prev(R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """The 4x4 transform ``[R | t]``."""
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, t
+    return T

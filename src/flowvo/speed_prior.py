@@ -1,0 +1,56 @@
+"""A smooth-speed prior for noisy per-frame step lengths: a causal robust line through recent steps.
+
+A car's speed changes slowly (at most a few m/s per second), while per-frame ground-plane estimates are
+noisy with heavy tails. Each new frame's step is read off a robust (Huber, IRLS) straight line through the
+last ``window`` accepted measurements against time, so acceleration from a stop is followed without lag
+and single wild measurements are ignored.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+
+def robust_line_value(times_s: np.ndarray, values: np.ndarray, at_s: float, iterations: int = 6) -> float:
+    """Value at ``at_s`` of a Huber line fit through (times_s, values)."""
+    A = np.stack([np.ones_like(times_s), times_s - at_s], axis=1)
+    weights = np.ones_like(values)
+    coefficients = np.zeros(2)
+    for _ in range(iterations):
+        coefficients = np.linalg.lstsq(A * weights[:, None], values * weights, rcond=None)[0]
+        residuals = values - A @ coefficients
+        spread = 1.4826 * float(np.median(np.abs(residuals))) + 1e-3
+        weights = np.sqrt(np.minimum(1.0, 1.5 * spread / np.maximum(np.abs(residuals), 1e-9)))
+    return float(coefficients[0])
+
+
+class SpeedPrior:
+    """Filters per-frame speed measurements (m/s) into a smooth, outlier-free speed.
+
+    ``update(time_s, speed_mps)`` takes a measurement (None when the frame gave none) and returns the
+    filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed).
+    Measurements above ``max_speed_mps`` are rejected as implausible.
+    """
+
+    def __init__(self, window: int = 9, min_points: int = 4, max_speed_mps: float = 45.0) -> None:
+        self.max_speed_mps = max_speed_mps
+        self.min_points = min_points
+        self._history: deque[tuple[float, float]] = deque(maxlen=window)
+
+    def update(self, time_s: float, speed_mps: float | None) -> float | None:
+        """The filtered speed (m/s) at ``time_s``, or None while there is no measurement at all."""
+        if speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_mps:
+            self._history.append((time_s, speed_mps))
+        if not self._history:
+            return None
+        times, speeds = (np.array(column) for column in zip(*self._history, strict=True))
+        if len(speeds) < self.min_points:
+            return float(np.median(speeds))
+        return max(0.0, robust_line_value(times, speeds, time_s))
+
+    def stop(self, time_s: float) -> None:
+        """A standstill at ``time_s``: earlier speeds no longer describe the motion."""
+        self._history.clear()
+        self._history.append((time_s, 0.0))
