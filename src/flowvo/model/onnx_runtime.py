@@ -21,8 +21,8 @@ from flowvo.optional import import_optional
 class OnnxOdometry:
     """An exported odometry model on ONNX Runtime's CPU provider.
 
-    ``intra_op_threads``: threads one inference may use (default 1: on a small CPU the flow estimator
-    and the network then do not fight over cores, and batch-1 latency barely changes).
+    ``intra_op_threads``: threads one inference may use; 0 lets ONNX Runtime choose. Default 1, so that on
+    a small CPU the flow estimator and the network do not fight over cores.
     """
 
     def __init__(self, path: str | Path, intra_op_threads: int = 1) -> None:
