@@ -198,22 +198,35 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from flowvo.model.checkpoint import write_slim_checkpoint
-    from flowvo.model.export import export_torchscript
+    from flowvo.model.checkpoint import packaged_model_path, write_slim_checkpoint
+    from flowvo.model.export import export_onnx, export_torchscript
 
-    written = [write_slim_checkpoint(args.model, args.out)] if args.format == "slim" else \
-        export_torchscript(args.model, args.out)
+    model = args.model or packaged_model_path()
+    if args.format == "slim":
+        written = [write_slim_checkpoint(model, args.out)]
+    elif args.format == "onnx":
+        written = export_onnx(model, args.out, not args.no_symmetric, args.opset)
+    else:
+        written = export_torchscript(model, args.out, not args.no_symmetric)
     for path in written:
         print(f"wrote {path}")
     return 0
 
 
 def _add_export(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("export", help="export a checkpoint: TorchScript (+ JSON), or a slim float16 checkpoint")
-    p.add_argument("--model", required=True)
-    p.add_argument("--out", required=True, help="output file, e.g. model.ts or default.pt")
-    p.add_argument("--format", choices=("torchscript", "slim"), default="torchscript",
-                   help="slim: float16 weights + config + normalisation, runnable by flowvo run (not resumable)")
+    from flowvo.model.export_format import ONNX_OPSET
+
+    p = sub.add_parser("export", help="export a checkpoint: ONNX or TorchScript (+ JSON), or a slim float16 checkpoint")
+    p.add_argument("--model", help="checkpoint (default: the packaged model)")
+    p.add_argument("--out", required=True, help="output file, e.g. model.onnx, model.ts or default.pt")
+    p.add_argument("--format", choices=("onnx", "torchscript", "slim"), default="torchscript",
+                   help="onnx / torchscript: flow (B, 2K, h, w) in pixels of the network input -> motion (B, D) "
+                        "in m and rad, described in OUT.json (onnx needs: pip install 'flowvo[export]'); "
+                        "slim: float16 weights + config + normalisation, runnable by flowvo run (not resumable)")
+    p.add_argument("--no-symmetric", action="store_true",
+                   help="onnx / torchscript: run only the direct pass, not its average with the mirrored one "
+                        "(half the network cost; keeps the small constant heading offset the average cancels)")
+    p.add_argument("--opset", type=int, default=ONNX_OPSET, help="onnx: opset version")
     p.set_defaults(func=_cmd_export)
 
 

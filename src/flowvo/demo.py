@@ -3,11 +3,11 @@ model and the classical baseline on it, evaluate both and write the report."""
 
 from __future__ import annotations
 
-from importlib import resources
 from pathlib import Path
 
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
+from flowvo.model.checkpoint import packaged_model_path
 from flowvo.pipeline import RunOptions, run
 from flowvo.report import write_report
 from flowvo.synth.dataset import synthesize
@@ -16,14 +16,6 @@ DEMO_SEED = 2026  # the packaged model's training worlds use seed 0: this world 
 DEMO_FRAMES = 900
 DEMO_SCALE = 0.5
 DEMO_MAX_SPEED_MPS = 15.0  # an urban drive, like the KITTI trajectories the packaged model learned from
-
-
-def packaged_model_path() -> Path:
-    """The default model shipped inside the package (see README: how it was trained)."""
-    path = Path(str(resources.files("flowvo") / "models" / "default.pt"))
-    if not path.is_file():
-        raise FlowvoError("the packaged model is missing; train one (README, 'The packaged model')", path)
-    return path
 
 
 def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence: str | None = None,

@@ -149,6 +149,12 @@ def mirror_motion(motion: np.ndarray) -> np.ndarray:
     return MIRROR_X @ motion @ MIRROR_X
 
 
+TARGET_NAMES = {  # the components of each head's targets, in order, with their units
+    "planar": ("distance_m", "heading_rad"),  # heading_rad: the heading change over the step
+    "se3": ("tx_m", "ty_m", "tz_m", "rx_rad", "ry_rad", "rz_rad"),  # camera frame of frame i-1
+}
+
+
 def mirror_targets(targets: np.ndarray, head: str) -> np.ndarray:
     """Mirror regression targets: planar negates the heading change; se3 negates tx, ry and rz."""
     signs = {"planar": np.array([1.0, -1.0]), "se3": np.array([-1.0, 1.0, 1.0, 1.0, -1.0, -1.0])}[head]

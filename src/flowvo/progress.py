@@ -1,8 +1,13 @@
-"""The one progress-bar helper: library code reports progress only through here, so it can be silenced."""
+"""The one progress-bar helper: library code reports progress only through here, so it can be silenced.
+
+Bars are drawn only when stderr is a terminal (never into a log file or a CI transcript), and never
+when switched off by ``FLOWVO_PROGRESS=0`` or the CLI's ``-q``.
+"""
 
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Iterable, Iterator
 from typing import TypeVar
 
@@ -20,5 +25,6 @@ def set_progress_enabled(enabled: bool) -> None:
 
 
 def progress(items: Iterable[T], desc: str, total: int | None = None, unit: str = "it") -> Iterator[T]:
-    """Iterate over ``items`` with a tqdm bar on stderr when progress is enabled."""
-    return iter(tqdm(items, desc=desc, total=total, unit=unit, disable=not _enabled, leave=False))
+    """Iterate over ``items`` with a tqdm bar on stderr when progress is enabled and stderr is a terminal."""
+    visible = _enabled and sys.stderr is not None and sys.stderr.isatty()
+    return iter(tqdm(items, desc=desc, total=total, unit=unit, disable=not visible, leave=False, file=sys.stderr))

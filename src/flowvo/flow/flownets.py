@@ -16,7 +16,6 @@ import torch.nn.functional as F
 from torch import nn
 
 from flowvo.errors import FlowvoError
-from flowvo.flow.registry import register
 
 DIV_FLOW = 20.0
 MEAN_RGB = (0.411, 0.432, 0.45)
@@ -118,8 +117,6 @@ def load_flownets(path: str | Path | None) -> FlowNetS:
 class FlowNetSFlow:
     """Flow from a FlowNetS checkpoint; grey frames are replicated to RGB."""
 
-    learned = True
-
     def __init__(self, name: str, weights: str | Path | None, device: str = "cpu") -> None:
         self.name, self.weights, self.device = name, str(weights), device
         self.model = load_flownets(weights).to(device)
@@ -142,5 +139,3 @@ class FlowNetSFlow:
     def params(self) -> dict:
         return {"weights": self.weights, "div_flow": DIV_FLOW}
 
-
-register("flownets")(FlowNetSFlow)

@@ -12,13 +12,10 @@ import numpy as np
 import torch
 
 from flowvo.errors import FlowvoError
-from flowvo.flow.registry import register
 
 
 class RaftFlow:
     """torchvision's RAFT with a local state_dict; frames padded to multiples of 8."""
-
-    learned = True
 
     def __init__(self, name: str, weights: str | Path | None, device: str = "cpu") -> None:
         try:
@@ -53,6 +50,3 @@ class RaftFlow:
     def params(self) -> dict:
         return {"weights": self.weights}
 
-
-register("raft-small")(RaftFlow)
-register("raft-large")(RaftFlow)

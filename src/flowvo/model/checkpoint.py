@@ -7,6 +7,7 @@ is refused with a message naming the difference.
 from __future__ import annotations
 
 from dataclasses import asdict
+from importlib import resources
 from pathlib import Path
 
 import torch
@@ -18,6 +19,14 @@ from flowvo.model.data import Normalization
 from flowvo.model.network import OdometryNet
 
 FORMAT = "flowvo-odometry-v1"
+
+
+def packaged_model_path() -> Path:
+    """The default model shipped inside the package (see README: how it was trained)."""
+    path = Path(str(resources.files("flowvo") / "models" / "default.pt"))
+    if not path.is_file():
+        raise FlowvoError("the packaged model is missing; train one (README, 'The packaged model')", path)
+    return path
 
 
 def save_checkpoint(path: str | Path, state: dict) -> None:

@@ -1,43 +1,42 @@
-"""Inference: network outputs in batches, optional temporal median, chaining into poses."""
+"""Inference: network outputs in batches, optional temporal median, chaining into poses.
+
+Every path runs :class:`flowvo.model.deployable.DeployableOdometry`, the one rule from resized flow to
+physical motion (normalisation, symmetric mirrored pass, de-normalisation).
+"""
 
 from __future__ import annotations
 
 import numpy as np
 import torch
 
-from flowvo.geometry import chain_planar, chain_se3, mirror_targets, se3_from_targets
-from flowvo.model.data import Normalization, mirror_input, stacked_input
+from flowvo.geometry import chain_planar, chain_se3, se3_from_targets
+from flowvo.model.data import Normalization, stacked_input
+from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.network import OdometryNet
 
 
-@torch.no_grad()
 def predict_batch(model: OdometryNet, normalization: Normalization, inputs: torch.Tensor,
                   symmetric: bool = True) -> np.ndarray:
-    """Motions (B, D) in physical units of network inputs (B, 2K, h, w) (flow / flow_std_px).
+    """Motions (B, D) float64 in physical units (m, rad) of normalised network inputs (B, 2K, h, w), that
+    is flow in pixels of the network input divided by ``normalization.flow_std_px``.
 
-    ``symmetric``: also run the mirrored input and average it, mirrored back, with the direct output.
-    Training sees every sample both ways, yet SGD leaves the heading output a small constant offset
-    (measured 5e-4 to 1.2e-3 rad per frame, sign varying by epoch) that integrates into large drift;
-    the average cancels any such offset exactly, for twice the (small) network cost.
+    ``symmetric``: average with the mirrored pass, as :class:`DeployableOdometry` explains.
     """
-    model.eval()
-    if not symmetric:
-        return normalization.denormalize(model(inputs).cpu().numpy().astype(np.float64))
-    both = model(torch.cat([inputs, mirror_input(inputs)]))
-    both = normalization.denormalize(both.cpu().numpy().astype(np.float64))
-    direct, mirrored = both[: len(inputs)], both[len(inputs) :]
-    return 0.5 * (direct + mirror_targets(mirrored, model.config.head))
+    deployable = DeployableOdometry(model, normalization, symmetric)
+    return deployable.predict(inputs * normalization.flow_std_px)
 
 
-@torch.no_grad()
 def predict_targets(model: OdometryNet, normalization: Normalization, flows: torch.Tensor, stack: int,
                     device: str = "cpu", batch_size: int = 256, symmetric: bool = True) -> np.ndarray:
-    """Motions (N, D) in physical units (m, rad) of every pair of ``flows`` (N, 2, h, w)."""
+    """Motions (N, D) float64 in physical units (m, rad) of every pair of ``flows`` (N, 2, h, w), pixels of
+    the network input (as :func:`flowvo.model.data.load_network_flows` returns them), pair i stacked with
+    its ``stack`` - 1 predecessors."""
+    deployable = DeployableOdometry(model, normalization, symmetric)
     outputs = []
     for first in range(0, len(flows), batch_size):
         pairs = range(first, min(first + batch_size, len(flows)))
-        batch = torch.stack([stacked_input(flows, p, stack) for p in pairs]).float() / normalization.flow_std_px
-        outputs.append(predict_batch(model, normalization, batch.to(device), symmetric))
+        batch = torch.stack([stacked_input(flows, p, stack) for p in pairs]).to(device)
+        outputs.append(deployable.predict(batch))
     return np.concatenate(outputs)
 
 

@@ -6,6 +6,7 @@ in memory. Optional ground truth lets ``flowvo run`` evaluate what it can.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Protocol
@@ -64,3 +65,9 @@ class FrameSource(Protocol):
     is_synthetic: bool
 
     def frames(self) -> Iterator[tuple[float, np.ndarray]]: ...
+
+
+def safe_source_name(stem: str, fallback: str) -> str:
+    """A plain name for output files from a file or folder stem: characters outside [A-Za-z0-9_-] become
+    '_'; ``fallback`` when nothing is left."""
+    return re.sub(r"[^A-Za-z0-9_-]", "_", stem) or fallback
