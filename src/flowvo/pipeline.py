@@ -1,159 +1,157 @@
-"""``flowvo run``: odometry on one sequence, learned or classical, with per-stage timing and evaluation.
+"""``flowvo run``: odometry on one drive (a KITTI sequence, a video file or a ROS bag topic), with per-stage
+timing and, when ground truth exists, evaluation.
 
-Outputs in DIR: ``NN.txt`` (KITTI poses), ``NN.tum``, ``timing.json`` (seconds per frame for image read,
-flow, network, chaining and total), ``run.json`` (what ran, on what data) and, when ground truth exists,
-``eval_NN/`` (metrics.json and plots, as ``flowvo eval`` writes them).
+Outputs in OUT: ``NAME.txt`` (KITTI poses), ``NAME.tum`` (TUM, the source's timestamps), ``timing.json``
+(seconds per frame by stage, wall-clock frames per second), ``run.json`` (what ran, on what data) and,
+with ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 """
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import torch
+import numpy as np
 
 from flowvo.atomic import write_json_atomic
-from flowvo.classical_vo import classical_motions
 from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
-from flowvo.flow.cache import FlowCache
-from flowvo.flow.registry import create_estimator
-from flowvo.geometry import chain_se3, planar_targets
+from flowvo.geometry import planar_targets
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
-from flowvo.kitti.sequence import KittiSequence
-from flowvo.model.checkpoint import load_model
-from flowvo.model.data import load_network_flows
-from flowvo.model.inference import chain_motions, predict_targets, temporal_median
+from flowvo.sources.base import FrameSource
 from flowvo.trajectory import Trajectory
+
+METHODS = ("flowvo", "cnn", "classical")
 
 
 @dataclass
 class RunOptions:
-    """How to run: ``method`` is "learned" (needs ``model``) or "classical" (scale "gt" or "height")."""
+    """What to run on which drive.
 
-    data: str
-    sequence: str
+    Drive: ``data`` + ``sequence`` (KITTI layout), ``video``, or ``bag`` + ``topic``; intrinsics for video
+    and bags from ``calib`` or ``fx, fy, cx, cy`` (bags: or ``camera_info_topic``).
+    ``method``: "flowvo" (default, no ground truth), "cnn" (the thesis network, ``model`` or the packaged
+    one) or "classical" (``classical_scale`` "height", or "gt": GT step lengths, labelled so).
+    """
+
     out: str
-    method: str = "learned"
+    data: str | None = None
+    sequence: str | None = None
+    video: str | None = None
+    bag: str | None = None
+    topic: str | None = None
+    camera_info_topic: str | None = None
+    calib: str | None = None
+    fx: float | None = None
+    fy: float | None = None
+    cx: float | None = None
+    cy: float | None = None
+    method: str = "flowvo"
     model: str | None = None
     flow_method: str | None = None
-    flow_scale: float | None = None
-    flow_cache: str | None = None
-    flow_weights: str | None = None
-    median_window: int = 1
-    classical_scale: str = "gt"
-    device: str = "cpu"
+    classical_scale: str = "height"
+    max_frames: int | None = None
     label: str | None = None
+
+
+def open_source(options: RunOptions) -> FrameSource:
+    """The drive named by the options (validated before anything is written)."""
+    from flowvo.sources.intrinsics import intrinsics_from_options
+
+    drives = [name for name, given in (("--data", options.data), ("--video", options.video),
+                                       ("--bag", options.bag)) if given]
+    if len(drives) != 1:
+        raise FlowvoError("give exactly one drive: --data ROOT --sequence NN, --video FILE or --bag PATH --topic T"
+                          + (f" (got {' and '.join(drives)})" if drives else ""))
+    intrinsics = intrinsics_from_options(options.calib, options.fx, options.fy, options.cx, options.cy)
+    if options.data:
+        from flowvo.kitti.sequence import KittiSequence
+        from flowvo.sources.kitti_folder import KittiFolderSource
+
+        if options.sequence is None:
+            raise FlowvoError("--data needs --sequence NN")
+        if intrinsics is not None:
+            raise FlowvoError("--calib/--fx.. are for --video and --bag; a KITTI sequence has its calib.txt")
+        return KittiFolderSource(KittiSequence(options.data, options.sequence))
+    if options.video:
+        from flowvo.sources.video import open_video_source
+
+        return open_video_source(options.video, intrinsics)
+    from flowvo.sources.rosbag import open_bag_source
+
+    if options.topic is None:
+        raise FlowvoError("--bag needs --topic IMAGE_TOPIC")
+    return open_bag_source(options.bag, options.topic, options.camera_info_topic, intrinsics)
+
+
+def make_step(options: RunOptions, source: FrameSource):
+    """The per-frame odometry step of ``options.method`` for this source."""
+    from flowvo import odometry_step
+
+    if options.method == "flowvo":
+        return odometry_step.FlowGeometryStep(source.intrinsics, source.image_size_hw,
+                                              flow_method=options.flow_method or "dis-medium")
+    if options.method == "cnn":
+        from flowvo.model.checkpoint import load_model, packaged_model_path
+
+        model, normalization, state = load_model(options.model or packaged_model_path())
+        flow_method = options.flow_method or state.get("train_config", {}).get("flow_method", "dis-medium")
+        trained_hw = state.get("flow_size_hw") or [188, 620]
+        return odometry_step.CnnStep(source.intrinsics, source.image_size_hw, model, normalization, flow_method,
+                                     working_width=int(trained_hw[1]))
+    if options.method == "classical":
+        steps = None
+        if options.classical_scale == "gt":
+            if source.ground_truth is None:
+                raise FlowvoError("--scale-from gt needs ground-truth poses, and this drive has none")
+            steps = planar_targets(source.ground_truth.T_world_cam)[:, 0]
+        return odometry_step.ClassicalStep(source.intrinsics, steps)
+    raise FlowvoError(f"unknown method {options.method!r}; choose one of {', '.join(METHODS)}")
 
 
 def run(options: RunOptions) -> dict:
     """Run odometry and write every output; returns the run summary (also in run.json)."""
-    sequence = KittiSequence(options.data, options.sequence)
+    from flowvo.stream import stream_odometry
+
+    source = open_source(options)
+    step = make_step(options, source)
     out = Path(options.out)
     out.mkdir(parents=True, exist_ok=True)
-    if options.method == "learned":
-        poses, timing, details = _run_learned(sequence, options)
-    elif options.method == "classical":
-        poses, timing, details = _run_classical(sequence, options)
-    else:
-        raise ValueError(f"unknown method {options.method!r}")
-    trajectory = Trajectory.from_poses(poses)
-    write_kitti_poses(out / f"{sequence.sequence}.txt", trajectory)
-    write_tum_trajectory(out / f"{sequence.sequence}.tum", trajectory)
-    frames = len(sequence)
-    per_frame = {key: value / frames for key, value in timing.items()}
-    per_frame["total"] = sum(per_frame.values())
-    timing_report = {
-        "seconds_per_frame": per_frame,
-        "frames": frames,
-        "frames_per_second": 1.0 / per_frame["total"] if per_frame["total"] > 0 else None,
-        "torch_threads": torch.get_num_threads(),
-        **details.pop("timing_notes", {}),
-    }
-    write_json_atomic(out / "timing.json", timing_report)
+    result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name)
+    trajectory = Trajectory.from_poses(result.T_world_cam)
+    write_kitti_poses(out / f"{source.name}.txt", trajectory)
+    write_tum_trajectory(out / f"{source.name}.tum", trajectory, result.timestamps_s)
+    timing = timing_report(result)
+    write_json_atomic(out / "timing.json", timing)
     summary = {
-        "label": options.label or details["method_label"],
-        "sequence": sequence.sequence,
-        "data": str(Path(options.data).resolve()),
-        "synthetic": sequence.is_synthetic,
-        "frames": frames,
-        "poses": f"{sequence.sequence}.txt",
-        **details,
+        "label": options.label or step.label,
+        "method": options.method,
+        "sequence": source.name,
+        "source": {"data": options.data, "video": options.video, "bag": options.bag, "topic": options.topic},
+        "synthetic": source.is_synthetic,
+        "frames": result.frames,
+        "poses": f"{source.name}.txt",
+        "intrinsics": vars(source.intrinsics) if hasattr(source.intrinsics, "__dict__") else None,
+        "frames_per_second": timing["frames_per_second"],
     }
-    if sequence.has_poses:
-        evaluation = evaluate(sequence.poses, trajectory)
-        save_evaluation(evaluation, out / f"eval_{sequence.sequence}")
+    if options.method == "classical":
+        summary["scale_source"] = options.classical_scale
+    if source.ground_truth is not None:
+        gt = source.ground_truth.subset(np.arange(result.frames)) if result.frames < len(source.ground_truth) \
+            else source.ground_truth
+        evaluation = evaluate(gt, trajectory)
+        save_evaluation(evaluation, out / f"eval_{source.name}")
         summary["metrics"] = {k: evaluation.metrics[k] for k in ("t_err_percent", "r_err_deg_per_m", "ate_rmse_m")}
     write_json_atomic(out / "run.json", summary)
     return summary
 
 
-def _run_learned(sequence: KittiSequence, options: RunOptions):
-    if options.model is None:
-        raise FlowvoError("the learned method needs --model CHECKPOINT (or use the packaged default via demo)")
-    model, normalization, state = load_model(options.model)
-    model.to(options.device)
-    trained = state.get("train_config", {})
-    flow_method = options.flow_method or trained.get("flow_method", "dis-medium")
-    flow_scale = options.flow_scale or matching_flow_scale(sequence, state)
-    estimator = create_estimator(flow_method, options.flow_weights, options.device)
-    cache = FlowCache(options.flow_cache or f"{options.data}/flow_cache", sequence, flow_method, flow_scale,
-                      estimator.params())
-    this_run = cache.compute(estimator)
-    recorded = cache.recorded_timing() or this_run
-    pairs = max(recorded["pairs"], 1)
-    timing = {"image_read": recorded["read_s"] / pairs * cache.n_pairs,
-              "flow": recorded["flow_s"] / pairs * cache.n_pairs}
-    start = time.perf_counter()
-    flows = load_network_flows(cache, model.config.input_hw, sequence.sequence)
-    targets = predict_targets(model, normalization, flows, model.config.stack, options.device)
-    timing["network"] = time.perf_counter() - start
-    start = time.perf_counter()
-    targets = temporal_median(targets, options.median_window)
-    poses = chain_motions(targets, model.config.head)
-    timing["chaining"] = time.perf_counter() - start
-    details = {
-        "method": "learned", "method_label": f"flowvo ({flow_method} + CNN)", "model": str(options.model),
-        "flow_method": flow_method, "flow_scale": flow_scale, "flow_size_hw": list(cache.flow_size_hw),
-        "model_config": state["model_config"], "median_window": options.median_window,
-        "timing_notes": {"flow_timing": "measured when the flow cache was filled" if not this_run["pairs"]
-                         else "measured in this run"},
-    }
-    return poses, timing, details
-
-
-def matching_flow_scale(sequence: KittiSequence, state: dict) -> float:
-    """Working scale that gives this sequence the flow width the model was trained on (so a model
-    trained on half-resolution synthetic frames runs on full-resolution KITTI frames at scale 0.5)."""
-    trained_hw = state.get("flow_size_hw")
-    if trained_hw:
-        return round(trained_hw[1] / sequence.image_size_hw[1], 4)
-    return float(state.get("train_config", {}).get("flow_scale", 0.5))
-
-
-def _run_classical(sequence: KittiSequence, options: RunOptions):
-    K = sequence.calibration.K0
-    steps = None
-    if options.classical_scale == "gt":
-        steps = planar_targets(sequence.poses.T_world_cam)[:, 0]
-    read_seconds = [0.0]
-
-    def frames():
-        for index in range(len(sequence)):
-            start = time.perf_counter()
-            image = sequence.read_image(index)
-            read_seconds[0] += time.perf_counter() - start
-            yield image
-
-    start = time.perf_counter()
-    motions = classical_motions(frames(), K, steps)
-    elapsed = time.perf_counter() - start
-    start = time.perf_counter()
-    poses = chain_se3(motions)
-    chaining = time.perf_counter() - start
-    timing = {"image_read": read_seconds[0], "flow": elapsed - read_seconds[0], "network": 0.0, "chaining": chaining}
-    label = "classical VO (KLT + essential matrix, " + ("GT scale)" if steps is not None else "camera-height scale)")
-    details = {"method": "classical", "method_label": label, "scale_source": options.classical_scale,
-               "timing_notes": {"flow_stage": "KLT tracking + essential-matrix RANSAC"}}
-    return poses, timing, details
+def timing_report(result) -> dict:
+    """Seconds per frame by stage (stages overlap: image reading runs in its own thread), and the
+    wall-clock total per frame and frames per second of the whole stream."""
+    frames = max(result.frames - 1, 1)
+    per_frame = {stage: seconds / frames for stage, seconds in result.stage_seconds.items()}
+    per_frame["total"] = result.wall_seconds / frames
+    return {"seconds_per_frame": per_frame, "frames": result.frames,
+            "frames_per_second": 1.0 / per_frame["total"] if per_frame["total"] > 0 else None,
+            "note": "image_read runs in a reader thread, overlapped with the other stages; total is wall-clock"}

@@ -104,14 +104,17 @@ def rotation_to_quaternion_xyzw(rotation: np.ndarray) -> np.ndarray:
     return -quaternion if quaternion[3] < 0 else quaternion
 
 
-def write_tum_trajectory(path: str | Path, trajectory: Trajectory, frame_rate_hz: float = 10.0) -> None:
-    """Write TUM format ``timestamp tx ty tz qx qy qz qw`` (timestamp = frame / rate, seconds), atomically."""
+def write_tum_trajectory(path: str | Path, trajectory: Trajectory, timestamps_s: np.ndarray) -> None:
+    """Write TUM format ``timestamp tx ty tz qx qy qz qw`` atomically; ``timestamps_s`` (N,) holds one
+    time in seconds per pose (KITTI: times.txt; video and bags: their own stamps)."""
+    if len(timestamps_s) != len(trajectory):
+        raise ValueError(f"{len(timestamps_s)} timestamps for {len(trajectory)} poses")
     lines = []
-    for frame_id, pose in zip(trajectory.frame_ids, trajectory.T_world_cam, strict=True):
+    for stamp, pose in zip(timestamps_s, trajectory.T_world_cam, strict=True):
         q = rotation_to_quaternion_xyzw(pose[:3, :3])
         t = pose[:3, 3]
         lines.append(
-            f"{frame_id / frame_rate_hz:.6f} {t[0]:.9f} {t[1]:.9f} {t[2]:.9f} "
+            f"{stamp:.9f} {t[0]:.9f} {t[1]:.9f} {t[2]:.9f} "
             f"{q[0]:.9f} {q[1]:.9f} {q[2]:.9f} {q[3]:.9f}"
         )
     with atomic_open(path) as handle:
