@@ -209,12 +209,12 @@ def test_corrupt_mcap_fails_with_a_flowvo_error(tmp_path):
 
 
 def test_without_the_ros_extra_the_error_says_how_to_install_it(tmp_path, monkeypatch):
-    monkeypatch.setattr(extra, "find_spec", lambda name: None if name == "rosbags" else object())
+    monkeypatch.setattr(extra, "find_spec", lambda name: None)
     assert "pip install 'flowvo[ros]'" in error_of(tmp_path / "x.bag", TOPIC)
 
 
 def test_importing_the_ros_modules_does_not_import_rosbags_or_mcap():
-    code = ("import sys, flowvo.sources.rosbag; "
+    code = ("import sys, flowvo.sources.rosbag, flowvo.ros.odometry_mcap; "
             "assert not {'rosbags', 'mcap'} & set(sys.modules), sorted(sys.modules)")
     src = Path(__file__).resolve().parents[1] / "src"
     subprocess.run([sys.executable, "-c", code], check=True, env={"PYTHONPATH": str(src), "PATH": ""})

@@ -1,5 +1,5 @@
 """ROS interop: sensor_msgs images and CameraInfo in, nav_msgs/Odometry, TF and Path out.
 
-Needs the optional ``ros`` extra (rosbags, mcap); every module imports those lazily, so the core install
+Needs the optional ``ros`` extra (rosbags); modules import it lazily, inside functions, so the core install
 never does.
 """
