@@ -200,7 +200,8 @@ def _scan_images(reader: Any, bag: Path, topic: str, message_type: str) -> tuple
             raise FlowvoError(f"{topic} message {index} is {this_hw[1]}x{this_hw[0]}, "
                               f"the first is {size_hw[1]}x{size_hw[0]}", bag)
         size_hw = this_hw
-    assert size_hw is not None  # _topic_type refused an empty topic
+    if size_hw is None:  # the bag's index promised messages that are not there
+        raise FlowvoError(f"topic {topic} has no readable messages", bag)
     return stamps_ns, size_hw
 
 
