@@ -49,7 +49,7 @@ def test_malformed_pose_files_name_file_and_line(tmp_path, content, message):
 
 def test_tum_file_has_timestamps_and_unit_quaternions(tmp_path):
     trajectory = sample_trajectory()
-    write_tum_trajectory(tmp_path / "t.tum", trajectory)
+    write_tum_trajectory(tmp_path / "t.tum", trajectory, np.arange(len(trajectory)) * 0.1)
     rows = np.loadtxt(tmp_path / "t.tum")
     np.testing.assert_allclose(rows[:, 0], 0.1 * np.arange(5))
     np.testing.assert_allclose(rows[:, 1:4], trajectory.positions, atol=1e-8)

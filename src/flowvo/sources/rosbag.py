@@ -1,0 +1,217 @@
+"""Frames of one image topic of a ROS bag: a ROS 1 ``.bag``, a ROS 2 bag folder, or a bare ``.mcap``/``.db3``.
+
+``open_bag_source`` validates everything it can before any output exists: the bag opens, the topic exists
+and carries sensor_msgs/Image or CompressedImage, every header stamp strictly increases, every raw image has a
+supported encoding and the same size, and intrinsics are known (from a CameraInfo topic or given). It reads the
+topic once to do so, without decoding pixels; ``frames()`` then reads it again, one message at a time, so
+a bag never has to fit in memory. Image decoding rules: ``flowvo.ros.images``; CameraInfo: ``flowvo.ros.camera_info``.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from contextlib import closing, contextmanager
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flowvo.errors import FlowvoError
+from flowvo.ros.camera_info import (
+    CAMERA_INFO_TYPE,
+    CameraInfoError,
+    camera_info_intrinsics,
+    is_rectified_topic,
+)
+from flowvo.ros.extra import require_ros_extra
+from flowvo.ros.images import (
+    IMAGE_TYPE,
+    IMAGE_TYPES,
+    ImageMessageError,
+    compressed_image_to_grey,
+    image_message_to_grey,
+    raw_image_size_hw,
+)
+from flowvo.sources.base import CameraIntrinsics
+from flowvo.sources.intrinsics import check_intrinsics
+from flowvo.trajectory import Trajectory
+
+BAG_FILE_SUFFIXES = (".bag", ".mcap", ".db3")
+# What repairs a recording cut short (no index or summary at the end of the file).
+_REPAIR_HINTS = {".bag": "; if the recording was cut short, `rosbag reindex` may repair it",
+                 ".mcap": "; if the recording was cut short, `mcap recover` may repair it"}
+
+
+class BagSource:
+    """A FrameSource over the images of ``topic`` in the bag at ``path`` (build it with ``open_bag_source``).
+
+    ``timestamps_s`` (N,): the images' header stamps in seconds (float64: sub-microsecond rounding for
+    stamps since 1970), strictly increasing. ``message_type``: sensor_msgs/msg/Image or CompressedImage.
+    """
+
+    ground_truth: Trajectory | None = None
+    is_synthetic: bool = False
+
+    def __init__(self, path: Path, topic: str, message_type: str, name: str, intrinsics: CameraIntrinsics,
+                 image_size_hw: tuple[int, int], timestamps_s: np.ndarray) -> None:
+        self.path = path
+        self.topic = topic
+        self.message_type = message_type
+        self.name = name
+        self.intrinsics = intrinsics
+        self.image_size_hw = image_size_hw
+        self.timestamps_s = timestamps_s
+        self.frame_count: int | None = len(timestamps_s)
+
+    def frames(self) -> Iterator[tuple[float, np.ndarray]]:
+        """Yield ``(timestamp_s, image (H, W) uint8 grey)`` per message of the topic, in bag order."""
+        height, width = self.image_size_hw
+        with _open_reader(self.path) as reader:
+            for index, msg in _topic_messages(reader, self.path, self.topic):
+                with _image_errors(self.path, self.topic, index):
+                    image = image_message_to_grey(msg, self.message_type)
+                if image.shape != self.image_size_hw:
+                    raise FlowvoError(f"{self.topic} message {index} is {image.shape[1]}x{image.shape[0]}, "
+                                      f"the first is {width}x{height}", self.path)
+                yield float(self.timestamps_s[index]), image
+
+
+def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None = None,
+                    intrinsics: CameraIntrinsics | None = None) -> BagSource:
+    """Open and validate the images of ``topic`` in the bag at ``path``; intrinsics come from the first
+    message of ``camera_info_topic`` or from ``intrinsics`` (exactly one of them).
+
+    Raises a one-line FlowvoError naming the bag (and topic) for a missing path, a file that is no bag, a
+    truncated or corrupt bag, a missing topic (listing the image topics present), a topic of another type,
+    an unsupported encoding, non-increasing header stamps, images of different sizes and missing intrinsics.
+    """
+    require_ros_extra("reading ROS bags")
+    bag = _check_bag_path(Path(path))
+    if camera_info_topic is not None and intrinsics is not None:
+        raise FlowvoError("give either a CameraInfo topic or intrinsics (--calib or --fx/--fy/--cx/--cy), not both")
+    with _open_reader(bag) as reader:
+        message_type = _topic_type(reader, bag, topic, IMAGE_TYPES, "image")
+        stamps_ns, image_size_hw = _scan_images(reader, bag, topic, message_type)
+        if camera_info_topic is not None:
+            intrinsics = _camera_info(reader, bag, camera_info_topic, is_rectified_topic(topic), image_size_hw)
+        elif intrinsics is None:
+            raise FlowvoError("no camera intrinsics: give --camera-info-topic (CameraInfo topics in the bag: "
+                              f"{_list_topics(reader, (CAMERA_INFO_TYPE,))}), --calib or --fx/--fy/--cx/--cy", bag)
+    check_intrinsics(intrinsics, image_size_hw, f"{bag}: {camera_info_topic}" if camera_info_topic else str(bag))
+    return BagSource(bag, topic, message_type, _safe_name(bag), intrinsics, image_size_hw,
+                     np.asarray(stamps_ns, dtype=np.int64) / 1e9)
+
+
+def _check_bag_path(path: Path) -> Path:
+    if not path.exists():
+        raise FlowvoError("no such bag file or folder", path)
+    if path.is_dir():
+        if not (path / "metadata.yaml").is_file():
+            raise FlowvoError("not a ROS 2 bag folder (it has no metadata.yaml)", path)
+    elif path.suffix not in BAG_FILE_SUFFIXES:
+        raise FlowvoError("not a ROS bag: expected a ROS 1 .bag file, a ROS 2 bag folder, or an .mcap or .db3 file",
+                          path)
+    return path
+
+
+def _safe_name(bag: Path) -> str:
+    """The bag's file stem (folder name for a ROS 2 folder) with characters outside [A-Za-z0-9_-] as '_'."""
+    stem = bag.name if bag.is_dir() else bag.stem
+    return re.sub(r"[^A-Za-z0-9_-]", "_", stem) or "bag"
+
+
+def _one_line(error: BaseException) -> str:
+    return " ".join(str(error).split()) or type(error).__name__
+
+
+@contextmanager
+def _open_reader(bag: Path) -> Iterator[Any]:
+    """An open rosbags AnyReader; bags without embedded message definitions decode as ROS 2 Humble types."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    try:
+        reader = AnyReader([bag], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
+        reader.open()
+    except Exception as error:  # corrupt files fail in many ways; all mean "unreadable"
+        hint = "" if bag.is_dir() else _REPAIR_HINTS.get(bag.suffix, "")
+        raise FlowvoError(f"cannot read the bag: {_one_line(error)}{hint}", bag) from None
+    try:
+        yield reader
+    finally:
+        reader.close()
+
+
+def _topic_messages(reader: Any, bag: Path, topic: str) -> Iterator[tuple[int, Any]]:
+    """(index, deserialized message) of every message of ``topic``, in bag order."""
+    connections = [connection for connection in reader.connections if connection.topic == topic]
+    try:
+        for index, (connection, _, raw) in enumerate(reader.messages(connections=connections)):
+            yield index, reader.deserialize(raw, connection.msgtype)
+    except Exception as error:  # as in _open_reader
+        raise FlowvoError(f"cannot read {topic}: {_one_line(error)}", bag) from None
+
+
+def _list_topics(reader: Any, types: tuple[str, ...]) -> str:
+    names = [f"{name} ({info.msgtype.rsplit('/', 1)[-1]})" for name, info in sorted(reader.topics.items())
+             if info.msgtype in types]
+    return ", ".join(names) or "none"
+
+
+def _topic_type(reader: Any, bag: Path, topic: str, types: tuple[str, ...], kind: str) -> str:
+    """The message type of ``topic``, which must be one of ``types`` and hold messages."""
+    info = reader.topics.get(topic)
+    if info is None:
+        raise FlowvoError(f"topic {topic} is not in the bag; {kind} topics: {_list_topics(reader, types)}", bag)
+    if info.msgtype not in types:
+        raise FlowvoError(f"topic {topic} has type {info.msgtype or 'mixed'}, expected "
+                          f"{' or '.join(types)}; {kind} topics: {_list_topics(reader, types)}", bag)
+    if info.msgcount == 0:
+        raise FlowvoError(f"topic {topic} has no messages", bag)
+    return info.msgtype
+
+
+@contextmanager
+def _image_errors(bag: Path, topic: str, index: int) -> Iterator[None]:
+    """Turn an ImageMessageError into a FlowvoError naming the bag, topic and message."""
+    try:
+        yield
+    except ImageMessageError as error:
+        raise FlowvoError(f"{topic} message {index}: {error}", bag) from None
+
+
+def _scan_images(reader: Any, bag: Path, topic: str, message_type: str) -> tuple[list[int], tuple[int, int]]:
+    """Header stamps (ns) of every message and the image size (height, width), checked on every raw image
+    and on the first compressed one (``frames()`` checks the others as it decodes them)."""
+    stamps_ns: list[int] = []
+    size_hw: tuple[int, int] | None = None
+    for index, msg in _topic_messages(reader, bag, topic):
+        stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
+        if stamps_ns and stamp_ns <= stamps_ns[-1]:
+            raise FlowvoError(f"{topic} header stamps must strictly increase: message {index} at "
+                              f"{stamp_ns / 1e9:.9f} s follows {stamps_ns[-1] / 1e9:.9f} s", bag)
+        stamps_ns.append(stamp_ns)
+        if message_type != IMAGE_TYPE and size_hw is not None:
+            continue
+        with _image_errors(bag, topic, index):
+            this_hw = raw_image_size_hw(msg) if message_type == IMAGE_TYPE else compressed_image_to_grey(msg).shape
+        if size_hw is not None and this_hw != size_hw:
+            raise FlowvoError(f"{topic} message {index} is {this_hw[1]}x{this_hw[0]}, "
+                              f"the first is {size_hw[1]}x{size_hw[0]}", bag)
+        size_hw = this_hw
+    if size_hw is None:  # the bag's index promised messages that are not there
+        raise FlowvoError(f"topic {topic} has no readable messages", bag)
+    return stamps_ns, size_hw
+
+
+def _camera_info(reader: Any, bag: Path, topic: str, rectified: bool, image_size_hw: tuple[int, int]
+                 ) -> CameraIntrinsics:
+    """Intrinsics from the first message of the CameraInfo ``topic`` (see ``camera_info_intrinsics``)."""
+    _topic_type(reader, bag, topic, (CAMERA_INFO_TYPE,), "CameraInfo")
+    with closing(_topic_messages(reader, bag, topic)) as messages:
+        _, msg = next(messages)
+    try:
+        return camera_info_intrinsics(msg, rectified, image_size_hw)
+    except CameraInfoError as error:
+        raise FlowvoError(f"{topic}: {error}", bag) from None
