@@ -165,12 +165,20 @@ def _add_train(sub: argparse._SubParsersAction) -> None:
 def _cmd_run(args: argparse.Namespace) -> int:
     from flowvo.pipeline import RunOptions, run
 
-    summary = run(RunOptions(data=args.data, sequence=args.sequence, out=args.out, method=args.method,
-                             model=args.model, flow_method=args.flow_method, flow_scale=args.flow_scale,
-                             flow_cache=args.cache, flow_weights=args.flow_weights, median_window=args.median,
-                             classical_scale=args.scale_from, device=args.device))
-    print(f"{summary['label']} on sequence {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
-    print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json")
+    if args.cache:
+        print("flowvo run: note: --cache is not used (run streams frames; flow caches serve training)",
+              file=sys.stderr)
+    summary = run(RunOptions(out=args.out, data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
+                             topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib,
+                             fx=args.fx, fy=args.fy, cx=args.cx, cy=args.cy, method=args.method, model=args.model,
+                             flow_method=args.flow_method, classical_scale=args.scale_from,
+                             max_frames=args.max_frames, mcap=args.mcap, frame_id=args.frame_id,
+                             child_frame_id=args.child_frame_id))
+    print(f"{summary['label']} on {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
+    print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
+          f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
+    if "mcap" in summary:
+        print(f"mcap: {args.out}/{summary['mcap']}")
     if "metrics" in summary:
         m = summary["metrics"]
         if m["t_err_percent"] is not None:
@@ -180,20 +188,32 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="odometry on one sequence: poses (KITTI, TUM), timing.json, evaluation")
-    p.add_argument("--data", required=True, help="dataset root in the KITTI layout")
-    p.add_argument("--sequence", required=True)
+    p = sub.add_parser("run", help="odometry on one drive (KITTI sequence, video, ROS bag): poses, timing, evaluation")
+    drive = p.add_argument_group("drive (one of)")
+    drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
+    drive.add_argument("--sequence", help="sequence name under DATA/sequences, e.g. 07")
+    drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy)")
+    drive.add_argument("--bag", help="a ROS 1 .bag, a ROS 2 bag folder or an .mcap (with --topic)")
+    drive.add_argument("--topic", help="image topic of --bag (sensor_msgs/Image or CompressedImage)")
+    drive.add_argument("--camera-info-topic", help="sensor_msgs/CameraInfo topic of --bag for the intrinsics")
+    camera = p.add_argument_group("intrinsics for --video and --bag (pixels of the frames)")
+    camera.add_argument("--calib", help="KITTI calib.txt (its P0)")
+    for name in ("fx", "fy", "cx", "cy"):
+        camera.add_argument(f"--{name}", type=float)
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--method", choices=("learned", "classical"), default="learned")
-    p.add_argument("--model", help="checkpoint for the learned method (default: the packaged model)")
-    p.add_argument("--flow-method", help="override the flow method the model was trained with")
-    p.add_argument("--flow-scale", type=float, help="override the flow working scale")
-    p.add_argument("--cache", help="flow cache root (default DATA/flow_cache)")
-    p.add_argument("--flow-weights", help="weights for a learned flow method")
-    p.add_argument("--median", type=int, default=1, help="temporal median over the last K predictions")
-    p.add_argument("--scale-from", choices=("gt", "height"), default="gt",
-                   help="classical method's metric scale: GT step lengths, or the 1.65 m camera height")
-    p.add_argument("--device", default="cpu")
+    p.add_argument("--method", choices=("flowvo", "cnn", "classical"), default="flowvo",
+                   help="flowvo (default): dense flow + geometry + road-plane scale; cnn: the thesis network "
+                        "(--model, default the packaged one); classical: KLT + essential matrix")
+    p.add_argument("--model", help="checkpoint for --method cnn (default: the packaged model)")
+    p.add_argument("--flow-method", help="flow method (default dis-medium; cnn: the model's)")
+    p.add_argument("--scale-from", choices=("height", "gt"), default="height",
+                   help="classical method's metric scale: the 1.65 m camera height, or GT step lengths (labelled)")
+    p.add_argument("--max-frames", type=int, help="stop after this many frames")
+    p.add_argument("--mcap", action="store_true", help="also write NAME.mcap (nav_msgs/Odometry, /tf, nav_msgs/Path); "
+                                                        "always on for --bag")
+    p.add_argument("--frame-id", default="odom", help="MCAP parent frame id (default odom)")
+    p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id (default camera_optical)")
+    p.add_argument("--cache", help=argparse.SUPPRESS)
     p.set_defaults(func=_cmd_run)
 
 
@@ -265,22 +285,38 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from flowvo.bench import benchmark, format_bench_table
+    from flowvo.bench import benchmark, format_bench_table, write_bench_json
+    from flowvo.pipeline import RunOptions
 
-    rows = benchmark(args.data, args.sequence, args.methods, args.frames, args.repeat, args.model, args.flow_method)
+    options = RunOptions(out="", data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
+                         topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
+                         fy=args.fy, cx=args.cx, cy=args.cy, model=args.model, flow_method=args.flow_method)
+    rows = benchmark(options, args.methods, args.frames, args.repeat)
     print(format_bench_table(rows))
+    if args.json:
+        write_bench_json(args.json, rows)
+        print(f"wrote {args.json}")
     return 0
 
 
 def _add_bench(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", help="timing table: seconds per frame by stage, streaming, median of repeats")
-    p.add_argument("--data", required=True)
-    p.add_argument("--sequence", required=True)
-    p.add_argument("--methods", nargs="+", choices=("learned", "classical"), default=["learned", "classical"])
-    p.add_argument("--frames", type=int, default=200)
-    p.add_argument("--repeat", type=int, default=3)
-    p.add_argument("--model", help="checkpoint (default: the packaged model)")
-    p.add_argument("--flow-method", help="override the model's flow method")
+    p = sub.add_parser("bench", help="streaming frames/s and seconds per stage of each method, median of repeats")
+    p.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
+    p.add_argument("--sequence")
+    p.add_argument("--video", help="or a video file (with --calib or --fx --fy --cx --cy)")
+    p.add_argument("--bag", help="or a ROS bag / MCAP (with --topic)")
+    p.add_argument("--topic")
+    p.add_argument("--camera-info-topic")
+    p.add_argument("--calib")
+    for name in ("fx", "fy", "cx", "cy"):
+        p.add_argument(f"--{name}", type=float)
+    p.add_argument("--methods", nargs="+", choices=("flowvo", "cnn", "classical"),
+                   default=["flowvo", "cnn", "classical"], help="methods in table order (default method first)")
+    p.add_argument("--frames", type=int, default=200, help="frames per run (at least 2)")
+    p.add_argument("--repeat", type=int, default=3, help="runs per method; the table shows medians")
+    p.add_argument("--model", help="checkpoint for cnn (default: the packaged model)")
+    p.add_argument("--flow-method", help="override the flow method")
+    p.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     p.set_defaults(func=_cmd_bench)
 
 

@@ -40,6 +40,7 @@ from flowvo.sources.base import CameraIntrinsics
 from flowvo.speed_prior import SpeedPrior
 
 STILL_FLOW_PX_AT_620 = 0.5
+DEFAULT_FLOW_METHOD = "dis-medium-fine"
 
 
 class OdometryStep(Protocol):
@@ -79,8 +80,9 @@ class _ResizingStep:
 class FlowGeometryStep(_ResizingStep):
     """The default method: dense flow, essential matrix, road-plane scale, smooth-speed prior."""
 
-    def __init__(self, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int], flow_method: str = "dis-medium",
-                 working_width: int = 620, camera_height_m: float = CAMERA_HEIGHT_M) -> None:
+    def __init__(self, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int],
+                 flow_method: str = DEFAULT_FLOW_METHOD, working_width: int = 620,
+                 camera_height_m: float = CAMERA_HEIGHT_M) -> None:
         super().__init__(intrinsics, image_size_hw, working_width)
         self.label = f"flowvo ({flow_method} flow + geometry, road-plane scale)"
         self.flow = create_estimator(flow_method)

@@ -52,6 +52,9 @@ class RunOptions:
     classical_scale: str = "height"
     max_frames: int | None = None
     label: str | None = None
+    mcap: bool = False
+    frame_id: str = "odom"
+    child_frame_id: str = "camera_optical"
 
 
 def open_source(options: RunOptions) -> FrameSource:
@@ -90,7 +93,7 @@ def make_step(options: RunOptions, source: FrameSource):
 
     if options.method == "flowvo":
         return odometry_step.FlowGeometryStep(source.intrinsics, source.image_size_hw,
-                                              flow_method=options.flow_method or "dis-medium")
+                                              flow_method=options.flow_method or odometry_step.DEFAULT_FLOW_METHOD)
     if options.method == "cnn":
         from flowvo.model.checkpoint import load_model, packaged_model_path
 
@@ -134,6 +137,12 @@ def run(options: RunOptions) -> dict:
         "intrinsics": vars(source.intrinsics) if hasattr(source.intrinsics, "__dict__") else None,
         "frames_per_second": timing["frames_per_second"],
     }
+    if options.mcap or options.bag:
+        from flowvo.ros.odometry_mcap import write_odometry_mcap
+
+        write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
+                            frame_id=options.frame_id, child_frame_id=options.child_frame_id)
+        summary["mcap"] = f"{source.name}.mcap"
     if options.method == "classical":
         summary["scale_source"] = options.classical_scale
     if source.ground_truth is not None:
