@@ -64,25 +64,26 @@ def ground_height_unit(points_prev, points_next, T_prev_next, K, image_hw) -> fl
 
 
 class ClassicalTracker:
-    """Streaming form of the baseline: ``start(first frame)``, then ``push(frame)`` returns the motion
-    ``T_prev_cur`` (4, 4); metric scale from ``step_lengths_m`` (GT protocol, step i = frame i -> i+1) or,
-    when None, from the camera height."""
+    """Streaming form of the baseline, in the two stages of a per-frame step: ``tracks(prev, cur)``
+    (KLT, thread-safe) and ``motion(tracks, image_hw)`` (in frame order) returning ``T_prev_cur`` (4, 4);
+    metric scale from ``step_lengths_m`` (GT protocol, step i = frame i -> i+1) or, when None, from the
+    camera height."""
 
     def __init__(self, K: np.ndarray, step_lengths_m: np.ndarray | None) -> None:
         self.K = K
         self.step_lengths_m = step_lengths_m
-        self.previous: np.ndarray | None = None
         self.index = 0
         self.last_scale = 1.0
         self.last_motion = np.eye(4)
 
-    def start(self, image: np.ndarray) -> None:
-        """The first frame."""
-        self.previous, self.index = image, 0
+    @staticmethod
+    def tracks(previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Corner tracks between two frames (see :func:`track_corners`)."""
+        return track_corners(previous, current)
 
-    def push(self, current: np.ndarray) -> np.ndarray:
-        """Motion from the previous frame to ``current``."""
-        p0, p1 = track_corners(self.previous, current)
+    def motion(self, tracks: tuple[np.ndarray, np.ndarray], image_hw: tuple[int, int]) -> np.ndarray:
+        """Motion of the next step from its tracks."""
+        p0, p1 = tracks
         still = len(p0) >= MIN_TRACKS and np.median(np.linalg.norm(p1 - p0, axis=1)) < STILL_FLOW_PX
         result = None if still else relative_motion(p0, p1, self.K)
         if result is None:
@@ -92,13 +93,12 @@ class ClassicalTracker:
             if self.step_lengths_m is not None:
                 scale = self.step_lengths_m[self.index]
             else:
-                height = ground_height_unit(p0[inliers], p1[inliers], motion, self.K, self.previous.shape)
+                height = ground_height_unit(p0[inliers], p1[inliers], motion, self.K, image_hw)
                 scale = CAMERA_HEIGHT_M / height if height and height > 1e-3 else self.last_scale
                 scale = float(np.clip(scale, 0.0, 4.0))
                 self.last_scale = scale
             motion = motion.copy()
             motion[:3, 3] *= scale
         self.last_motion = motion
-        self.previous = current
         self.index += 1
         return motion

@@ -1,5 +1,7 @@
-"""Stream a frame source through an odometry step: frames are decoded in a reader thread (OpenCV releases
-the GIL) while the step works on the previous pair, and motions are chained into camera-to-world poses.
+"""Stream a frame source through an odometry step as a three-stage pipeline: a reader thread decodes and
+prepares frames, a flow thread estimates the flow of each pair, and the caller's thread turns flows into
+motions in frame order and chains them. OpenCV and torch release the GIL, so on two cores the stages
+overlap; the poses are exactly those of running the stages one after another.
 """
 
 from __future__ import annotations
@@ -7,7 +9,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,15 +17,16 @@ import numpy as np
 from flowvo.errors import FlowvoError
 from flowvo.odometry_step import OdometryStep
 from flowvo.progress import progress
+from flowvo.stages import STAGES
 
-STAGES = ("image_read", "flow", "network", "geometry", "chaining")
 _END = object()
+_QUEUE_DEPTH = 4
 
 
 @dataclass
 class StreamResult:
     """Poses ``T_world_cam`` (N, 4, 4) (world = first camera), their timestamps (N,) in seconds, summed
-    seconds per stage, and the wall-clock seconds of the whole stream."""
+    seconds per stage (each measured in its own thread), and the wall-clock seconds of the stream."""
 
     T_world_cam: np.ndarray
     timestamps_s: np.ndarray
@@ -35,58 +38,93 @@ class StreamResult:
         return len(self.timestamps_s)
 
 
-def _prefetch(frames: Iterator[tuple[float, np.ndarray]], depth: int = 4
-              ) -> Iterator[tuple[float, np.ndarray, float]]:
-    """Yield (time_s, image, seconds spent decoding it) with decoding running ahead in a thread."""
-    buffer: queue.Queue = queue.Queue(maxsize=depth)
+class _Stage:
+    """A producer thread that feeds a bounded queue; exceptions travel to the consumer; ``cancel`` stops it."""
 
-    def read() -> None:
+    def __init__(self, produce: Callable[[Callable[[object], bool]], None]) -> None:
+        self.queue: queue.Queue = queue.Queue(maxsize=_QUEUE_DEPTH)
+        self.cancelled = threading.Event()
+        self.thread = threading.Thread(target=self._run, args=(produce,), daemon=True)
+        self.thread.start()
+
+    def _put(self, item: object) -> bool:
+        while not self.cancelled.is_set():
+            try:
+                self.queue.put(item, timeout=0.1)
+                return True
+            except queue.Full:
+                continue
+        return False
+
+    def _run(self, produce: Callable[[Callable[[object], bool]], None]) -> None:
         try:
-            iterator = iter(frames)
-            while True:
-                start = time.perf_counter()
-                item = next(iterator, _END)
-                if item is _END:
-                    break
-                buffer.put((*item, time.perf_counter() - start))
+            produce(self._put)
         except BaseException as error:  # handed to the consumer, which re-raises it
-            buffer.put(error)
-        buffer.put(_END)
+            self._put(error)
+        self._put(_END)
 
-    thread = threading.Thread(target=read, daemon=True)
-    thread.start()
-    while (item := buffer.get()) is not _END:
-        if isinstance(item, BaseException):
-            raise item
-        yield item
+    def __iter__(self) -> Iterator:
+        while (item := self.queue.get()) is not _END:
+            if isinstance(item, BaseException):
+                raise item
+            yield item
+
+    def cancel(self) -> None:
+        self.cancelled.set()
 
 
 def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep, total: int | None = None,
                     max_frames: int | None = None, label: str = "odometry") -> StreamResult:
-    """Run ``step`` over ``frames`` ((time_s, grey image) in order) and chain the motions."""
+    """Run ``step`` over ``frames`` ((time_s, grey image), in order) and chain the motions."""
+
+    def read(put: Callable[[object], bool]) -> None:
+        iterator, count, last_time_s = iter(frames), 0, None
+        while max_frames is None or count < max_frames:
+            start = time.perf_counter()
+            item = next(iterator, None)
+            if item is None:
+                return
+            time_s, image = item
+            if last_time_s is not None and not time_s > last_time_s:
+                raise FlowvoError(f"timestamps must increase: frame {count} at {time_s:.6f} s follows "
+                                  f"{last_time_s:.6f} s")
+            prepared = step.prepare(image)
+            if not put((time_s, prepared, time.perf_counter() - start)):
+                return
+            count, last_time_s = count + 1, time_s
+
+    def estimate_flow(put: Callable[[object], bool]) -> None:
+        previous, previous_time_s = None, None
+        for time_s, prepared, read_s in reader:
+            start = time.perf_counter()
+            flow = None if previous is None else step.flow(previous, prepared)
+            if not put(((previous_time_s, time_s), previous, flow, read_s, time.perf_counter() - start)):
+                return
+            previous, previous_time_s = prepared, time_s
+
     seconds = dict.fromkeys(STAGES, 0.0)
     poses: list[np.ndarray] = []
     times: list[float] = []
     wall_start = time.perf_counter()
-    items = _prefetch(frames)
-    for time_s, image, read_s in progress(items, label, total, "frame"):
-        seconds["image_read"] += read_s
-        if times and time_s <= times[-1]:
-            raise FlowvoError(f"timestamps must increase: frame {len(times)} at {time_s:.6f} s follows "
-                              f"{times[-1]:.6f} s")
-        if not poses:
-            step.start(time_s, image)
-            poses.append(np.eye(4))
-        else:
-            motion, stage_seconds = step.push(time_s, image)
-            start = time.perf_counter()
-            poses.append(poses[-1] @ motion)
-            seconds["chaining"] += time.perf_counter() - start
-            for stage, value in stage_seconds.items():
-                seconds[stage] += value
-        times.append(time_s)
-        if max_frames is not None and len(times) >= max_frames:
-            break
+    reader = _Stage(read)
+    flows = _Stage(estimate_flow)
+    try:
+        for times_s, previous, flow, read_s, flow_s in progress(flows, label, total, "frame"):
+            seconds["image_read"] += read_s
+            if previous is None:
+                poses.append(np.eye(4))
+            else:
+                seconds["flow"] += flow_s
+                start = time.perf_counter()
+                motion = step.motion(times_s, previous, flow)
+                middle = time.perf_counter()
+                poses.append(poses[-1] @ motion)
+                seconds[step.motion_stage] += middle - start
+                seconds["chaining"] += time.perf_counter() - middle
+            times.append(times_s[1])
+    finally:
+        reader.cancel()
+        flows.cancel()
     if not poses:
-        raise FlowvoError("no frames to run on")
+        raise FlowvoError("the drive has no frames")
     return StreamResult(np.stack(poses), np.asarray(times), seconds, time.perf_counter() - wall_start)
