@@ -79,7 +79,7 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
     fit fails or keeps fewer than ``min_inliers`` points."""
     if len(points_prev) < min_inliers:
         return None
-    E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.RANSAC, 0.999, threshold_px)
+    E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.USAC_FAST, 0.999, threshold_px)
     if E is None or E.shape != (3, 3):
         return None
     count, R, t, mask = cv2.recoverPose(E, points_prev, points_next, K, mask=mask)
