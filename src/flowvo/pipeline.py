@@ -60,7 +60,7 @@ def run(options: RunOptions) -> dict:
         raise ValueError(f"unknown method {options.method!r}")
     trajectory = Trajectory.from_poses(poses)
     write_kitti_poses(out / f"{sequence.sequence}.txt", trajectory)
-    write_tum_trajectory(out / f"{sequence.sequence}.tum", trajectory)
+    write_tum_trajectory(out / f"{sequence.sequence}.tum", trajectory, sequence.times_s)
     frames = len(sequence)
     per_frame = {key: value / frames for key, value in timing.items()}
     per_frame["total"] = sum(per_frame.values())
