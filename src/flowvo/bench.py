@@ -85,6 +85,7 @@ def benchmark(data: str | Path, sequence_name: str, methods: list[str], frames: 
               model: str | Path | None, flow_method: str | None = None) -> list[dict]:
     """Median seconds per frame by stage for each method ("learned", "classical")."""
     sequence = KittiSequence(data, sequence_name)
+    sequence.require_frames(2, "timing")
     frames = min(frames, len(sequence))
     rows = []
     for method in methods:

@@ -25,6 +25,7 @@ from flowvo.kitti.sequence import KittiSequence
 from flowvo.model.checkpoint import load_model
 from flowvo.model.data import load_network_flows
 from flowvo.model.inference import chain_motions, predict_targets, temporal_median
+from flowvo.outputs import prepare_output_dir, run_outputs
 from flowvo.trajectory import Trajectory
 
 
@@ -45,13 +46,14 @@ class RunOptions:
     classical_scale: str = "gt"
     device: str = "cpu"
     label: str | None = None
+    force: bool = False  # replace the earlier result of this sequence in ``out`` (else refused)
 
 
 def run(options: RunOptions) -> dict:
     """Run odometry and write every output; returns the run summary (also in run.json)."""
     sequence = KittiSequence(options.data, options.sequence)
-    out = Path(options.out)
-    out.mkdir(parents=True, exist_ok=True)
+    sequence.require_frames(2, "odometry")
+    out = prepare_output_dir(options.out, run_outputs(sequence.sequence), options.force, dataset=options.data)
     if options.method == "learned":
         poses, timing, details = _run_learned(sequence, options)
     elif options.method == "classical":
