@@ -18,6 +18,7 @@ from flowvo.classical_vo import classical_motions
 from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.flow.cache import FlowCache
+from flowvo.flow.cache_root import default_cache_root
 from flowvo.flow.registry import create_estimator
 from flowvo.geometry import chain_se3, planar_targets
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
@@ -100,7 +101,7 @@ def _run_learned(sequence: KittiSequence, options: RunOptions):
     flow_method = options.flow_method or trained.get("flow_method", "dis-medium")
     flow_scale = options.flow_scale or matching_flow_scale(sequence, state)
     estimator = create_estimator(flow_method, options.flow_weights, options.device)
-    cache = FlowCache(options.flow_cache or f"{options.data}/flow_cache", sequence, flow_method, flow_scale,
+    cache = FlowCache(options.flow_cache or default_cache_root(options.data), sequence, flow_method, flow_scale,
                       estimator.params())
     this_run = cache.compute(estimator)
     recorded = cache.recorded_timing() or this_run

@@ -47,8 +47,7 @@ def load_split(config: TrainConfig, names: list[str], flows_needed: bool = True
         if not sequence.has_poses:
             raise FlowvoError("training and validation need ground-truth poses", sequence.pose_path)
         cache = FlowCache(config.cache_root, sequence, config.flow_method, config.flow_scale, estimator.params())
-        if not cache.complete:
-            cache.compute(estimator)
+        cache.compute(estimator)  # fills missing chunks, recomputes damaged ones (checksums), else no-op
         if flows_needed:
             flows.append(load_network_flows(cache, config.model.input_hw, name))
         targets.append(motion_targets(sequence.poses.T_world_cam, config.model.head))
