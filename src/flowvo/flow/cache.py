@@ -30,7 +30,7 @@ from flowvo.kitti.sequence import KittiSequence
 from flowvo.progress import progress
 
 CHUNK_PAIRS = 32
-MIN_FLOW_PX = 16  # OpenCV's DIS refuses smaller frames
+MIN_FLOW_PX = 32  # OpenCV 5 DIS: below 16 px it raises; ultrafast/fast crash (SIGSEGV) on h <= 30, w >= 80
 TIMING_KEYS = ("read_s", "flow_s", "pairs")
 VALIDITY_KEYS = ("method", "params", "scale", "image_size_hw", "flow_size_hw", "pairs", "chunk_pairs", "frames_sha256")
 
