@@ -18,6 +18,7 @@ from flowvo.trajectory import Trajectory
 
 _ORTHONORMAL_TOLERANCE = 1e-2
 MAX_FRAME_INDEX = 2**31
+MAX_TRANSLATION_M = 1e8  # beyond UTM and Earth-centred coordinates; squares stay far from overflow
 
 
 def _numbers(fields: list[str], path: Path, line_number: int) -> list[float]:
@@ -39,6 +40,9 @@ def _pose(values: list[float], path: Path, line_number: int) -> np.ndarray:
     pose[:3, :4] = np.reshape(values, (3, 4))
     if not np.all(np.isfinite(pose)):
         raise FlowvoError("pose contains NaN or infinity", path, line_number)
+    if np.abs(pose[:3, 3]).max() > MAX_TRANSLATION_M:
+        raise FlowvoError(f"translation beyond {MAX_TRANSLATION_M:.0e} m (wrong units or a damaged file?)", path,
+                          line_number)
     rotation = pose[:3, :3]
     if np.abs(rotation @ rotation.T - np.eye(3)).max() > _ORTHONORMAL_TOLERANCE:
         raise FlowvoError("rotation part is not orthonormal", path, line_number)
@@ -50,8 +54,8 @@ def _pose(values: list[float], path: Path, line_number: int) -> np.ndarray:
 def read_kitti_poses(path: str | Path) -> Trajectory:
     """Read a KITTI pose file in the 12-float or the frame-indexed 13-number form.
 
-    Every line is checked: numbers only, finite, a proper rotation (orthonormal to 1e-2, determinant +1),
-    frame indices non-negative integers increasing; a binary file is refused, not misread.
+    Every line is checked: numbers only, finite, translations within 1e8 m, a proper rotation (orthonormal
+    to 1e-2, determinant +1), frame indices non-negative integers increasing; a binary file is refused.
     """
     path = Path(path)
     if not path.is_file():

@@ -69,8 +69,8 @@ class KittiSequence:
         numbered: list[tuple[int, Path]] = []
         for path in image_dir.iterdir():
             match = _FRAME_NAME.match(path.name)
-            if match is None:
-                if path.suffix.lower() == ".png":
+            if match is None:  # hidden files (e.g. a killed writer's .000004.x1y2.png) are never frames
+                if path.suffix.lower() == ".png" and not path.name.startswith("."):
                     raise FlowvoError("frame file name must be six digits, e.g. 000000.png", path)
                 continue
             numbered.append((int(match.group(1)), path))

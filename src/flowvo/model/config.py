@@ -150,7 +150,9 @@ class TrainConfig:
         if not path.is_file():
             raise FlowvoError("config file not found", path)
         try:
-            data = yaml.safe_load(path.read_text()) or {}
+            data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+        except UnicodeDecodeError:
+            raise FlowvoError("not valid YAML (not UTF-8 text)", path) from None
         except yaml.YAMLError as error:
             line = getattr(getattr(error, "problem_mark", None), "line", None)
             raise FlowvoError("not valid YAML", path, None if line is None else line + 1) from None
