@@ -272,6 +272,8 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
     read_checkpoint(args.model)  # a clear error for a missing or foreign file before anything is written
     out = Path(args.out)
+    if out.resolve() == Path(args.model).resolve():
+        raise FlowvoError("--out is the --model file itself; write the export elsewhere", out)
     extra = [out.with_name(out.name + ".json")] if args.format == "torchscript" else []  # the normalisation
     for target in (out, *extra):
         prepare_output_file(target, args.force)
