@@ -161,8 +161,8 @@ def test_export_to_a_folder_name_is_refused(tmp_path, capsys):
 
 def test_flow_pictures_are_not_written_into_the_dataset(data, tmp_path, capsys):
     before = tree_digest(data)
-    refused(capsys, "flow", "--data", data, "--sequence", "00", "--cache", tmp_path, "--visualize", data / "vis",
-            says="inside the dataset")
+    refused(capsys, "flow", "--data", data, "--sequence", "00", "--scale", "1", "--cache", tmp_path, "--visualize",
+            data / "vis", says="inside the dataset")
     assert tree_digest(data) == before
 
 

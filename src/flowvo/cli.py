@@ -117,12 +117,12 @@ def _cmd_flow(args: argparse.Namespace) -> int:
     if not args.visualize and (args.gif or args.every != 1):
         raise FlowvoError("--gif and --every apply to the pictures: give --visualize DIR too")
     sequence = KittiSequence(args.data, args.sequence)
-    pairs = range(0, len(sequence) - 1, args.every)
-    if args.visualize:
-        prepare_output_dir(args.visualize, flow_picture_names(pairs, args.gif), args.force, args.data, "--visualize")
     estimator = create_estimator(args.method, args.flow_weights)
     cache = FlowCache(args.cache or default_cache_root(args.data), sequence, args.method, args.scale,
                       estimator.params())
+    pairs = range(0, cache.n_pairs, args.every)
+    if args.visualize:
+        prepare_output_dir(args.visualize, flow_picture_names(pairs, args.gif), args.force, args.data, "--visualize")
     timing = cache.compute(estimator)
     if timing["discarded"]:
         print(f"discarded an earlier flow cache: {timing['discarded']}")
