@@ -101,6 +101,14 @@ def test_damaged_or_old_metadata_makes_the_cache_recomputed(filled, meta):
     np.testing.assert_array_equal(cache.read_range(0, 11), flows)
 
 
+def test_a_sound_complete_cache_is_only_read_so_it_may_be_read_only(filled):
+    cache, _ = filled
+    before = {path: path.stat().st_mtime_ns for path in cache.directory.iterdir()}
+    timing = reopen(cache).compute(create_estimator("dis-fast"))
+    assert timing["pairs"] == 0 and timing["replaced"] == 0 and timing["discarded"] is None
+    assert {path: path.stat().st_mtime_ns for path in cache.directory.iterdir()} == before
+
+
 def test_damaged_timing_is_ignored_not_fatal(filled):
     cache, _ = filled
     cache.timing_path.write_text('{"read_s": "fast"}')

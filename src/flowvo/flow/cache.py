@@ -163,33 +163,34 @@ class FlowCache:
     def _write_meta(self) -> None:
         write_json_atomic(self.meta_path, {**self.metadata, "chunks": self.chunks})
 
-    def _start(self) -> str | None:
-        """Create the folder, discard a stale cache; returns the reason it was discarded (or None)."""
+    def _start(self) -> None:
+        """Create the folder, discard a stale cache's chunks and timing, record the metadata."""
         try:
             self.directory.mkdir(parents=True, exist_ok=True)
         except OSError as error:
             raise FlowvoError(f"cannot create the flow cache folder ({error.strerror}); give a writable --cache",
                               self.directory) from None
-        discarded = self.stale_reason
-        if discarded is not None:
+        if self.stale_reason is not None:
             for path in [*self.directory.glob("chunk_*.npy"), self.timing_path]:
                 path.unlink(missing_ok=True)
             self.stale_reason, self.chunks = None, {}
         self._write_meta()
-        return discarded
 
     def compute(self, estimator: FlowEstimator, stop_after_chunks: int | None = None) -> dict:
         """Fill every missing or damaged chunk (checksums verified); returns seconds spent reading frames
         and estimating flow, the pairs computed, the chunks ``replaced`` because they were damaged, and
         ``discarded``: why an earlier cache for other inputs was thrown away (or None).
 
-        ``stop_after_chunks`` ends early after that many chunks (used to simulate an interrupted run).
+        A sound, complete cache is only read (it may be read-only). ``stop_after_chunks`` ends early after
+        that many chunks (used to simulate an interrupted run).
         """
-        discarded = self._start()
-        timing = {"read_s": 0.0, "flow_s": 0.0, "pairs": 0, "replaced": 0, "discarded": discarded}
-        missing = self.missing_chunks(verify_checksums=True)
+        timing = {"read_s": 0.0, "flow_s": 0.0, "pairs": 0, "replaced": 0, "discarded": self.stale_reason}
+        missing = self.missing_chunks(verify_checksums=True)  # every chunk of a stale cache
         if stop_after_chunks is not None:
             missing = missing[:stop_after_chunks]
+        if not missing:
+            return timing
+        self._start()
         total = sum(self._chunk_shape(k)[0] for k in missing)
         bar = progress(range(total), f"flow {self.sequence.sequence} {self.metadata['method']}", total, "pair")
         for chunk in missing:
