@@ -1,7 +1,8 @@
-"""Shared fixtures: paths into ../shared (skipped cleanly when absent)."""
+"""Shared fixtures: paths into ../shared (skipped cleanly when absent); a private user cache folder."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -32,3 +33,16 @@ def single_torch_thread():
     import torch
 
     torch.set_num_threads(1)
+
+
+@pytest.fixture(autouse=True, scope="session")
+def private_user_cache(tmp_path_factory):
+    """Default flow caches go to $XDG_CACHE_HOME/flowvo: point it at a temporary folder, so tests never
+    write into the real ~/.cache (subprocesses inherit it)."""
+    previous = os.environ.get("XDG_CACHE_HOME")
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg_cache"))
+    yield Path(os.environ["XDG_CACHE_HOME"])
+    if previous is None:
+        del os.environ["XDG_CACHE_HOME"]
+    else:
+        os.environ["XDG_CACHE_HOME"] = previous

@@ -24,7 +24,7 @@ def test_resume_after_interruption_equals_uninterrupted_run(sequence, tmp_path, 
     full.compute(estimator)
     interrupted = FlowCache(tmp_path / "b", sequence, "dis-fast", 0.5, estimator.params())
     interrupted.compute(estimator, stop_after_chunks=1)  # the "crash": only the first chunk exists
-    (interrupted.directory / ".chunk_000001.tmp.npy").write_bytes(b"half-written")  # debris of the kill
+    (interrupted.directory / ".chunk_000001.npy.x1y2.tmp").write_bytes(b"half-written")  # debris of the kill
     assert interrupted.missing_chunks() == [1, 2]
     resumed = FlowCache(tmp_path / "b", sequence, "dis-fast", 0.5, estimator.params())
     timing = resumed.compute(estimator)
@@ -33,11 +33,17 @@ def test_resume_after_interruption_equals_uninterrupted_run(sequence, tmp_path, 
     assert resumed.read(5).shape == (47, 155, 2)
 
 
-def test_mismatched_cache_is_refused(sequence, tmp_path):
+def test_cache_made_with_other_parameters_is_recomputed_not_reused(sequence, tmp_path):
     estimator = create_estimator("dis-fast")
     FlowCache(tmp_path, sequence, "dis-fast", 0.5, estimator.params()).compute(estimator)
-    with pytest.raises(FlowvoError, match="made with params=.*ultrafast"):
-        FlowCache(tmp_path, sequence, "dis-fast", 0.5, {"preset": "dis-ultrafast"})
+    other = FlowCache(tmp_path, sequence, "dis-fast", 0.5, {"preset": "dis-ultrafast"})
+    assert "made with params=" in other.stale_reason and other.missing_chunks() == [0]
+    with pytest.raises(FlowvoError, match="chunk unusable"):
+        other.read(0)
+    timing = other.compute(create_estimator("dis-ultrafast"))
+    assert timing["pairs"] == 11 and "params" in timing["discarded"]
+    reopened = FlowCache(tmp_path, sequence, "dis-fast", 0.5, {"preset": "dis-ultrafast"})
+    assert reopened.stale_reason is None and reopened.complete
 
 
 def test_flow_cli_computes_and_visualises(sequence, tmp_path, capsys):

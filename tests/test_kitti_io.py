@@ -47,11 +47,12 @@ def test_malformed_pose_files_name_file_and_line(tmp_path, content, message):
         read_kitti_poses(tmp_path / "p.txt")
 
 
-def test_tum_file_has_timestamps_and_unit_quaternions(tmp_path):
+def test_tum_file_has_the_given_timestamps_and_unit_quaternions(tmp_path):
     trajectory = sample_trajectory()
-    write_tum_trajectory(tmp_path / "t.tum", trajectory, np.arange(len(trajectory)) * 0.1)
+    times_s = np.array([0.0, 0.103751, 0.207502, 0.311252, 0.415003])  # real KITTI times.txt spacing
+    write_tum_trajectory(tmp_path / "t.tum", trajectory, times_s)
     rows = np.loadtxt(tmp_path / "t.tum")
-    np.testing.assert_allclose(rows[:, 0], 0.1 * np.arange(5))
+    np.testing.assert_allclose(rows[:, 0], times_s)
     np.testing.assert_allclose(rows[:, 1:4], trajectory.positions, atol=1e-8)
     np.testing.assert_allclose(np.linalg.norm(rows[:, 4:], axis=1), 1.0)
 

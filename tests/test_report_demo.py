@@ -14,7 +14,7 @@ def classical_runs(tmp_path_factory):
     synthesize(root, ["00"], seed=8, frames=220, scale=0.5, workers=2)
     runs = []
     for source in ("gt", "height"):
-        out = root / f"run_{source}"
+        out = tmp_path_factory.mktemp("reportruns") / f"run_{source}"  # results never go into the dataset
         assert main(["run", "--data", str(root), "--sequence", "00", "--method", "classical",
                      "--scale-from", source, "--out", str(out), "-q"]) == 0
         runs.append(out)

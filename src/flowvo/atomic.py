@@ -6,6 +6,8 @@ A crash never leaves a half-written output that later reads as valid.
 from __future__ import annotations
 
 import json
+import math
+import numbers
 import os
 import tempfile
 from collections.abc import Iterator
@@ -46,9 +48,28 @@ def write_text_atomic(path: str | Path, text: str) -> None:
         handle.write(text)
 
 
+def strict_json_value(data: Any) -> Any:
+    """``data`` with every NaN or infinite number replaced by None (JSON ``null``) and NumPy scalars made
+    Python numbers: JSON has no NaN, and ``NaN`` in a file breaks strict parsers (jq, browsers)."""
+    if isinstance(data, dict):
+        return {key: strict_json_value(value) for key, value in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [strict_json_value(value) for value in data]
+    if isinstance(data, bool) or not isinstance(data, numbers.Real):
+        return data
+    if isinstance(data, numbers.Integral):
+        return int(data)  # also NumPy integers, which json cannot write
+    return float(data) if math.isfinite(data) else None
+
+
+def strict_json_dumps(data: Any, **kwargs: Any) -> str:
+    """``json.dumps`` of :func:`strict_json_value` with ``allow_nan=False``: always valid JSON."""
+    return json.dumps(strict_json_value(data), allow_nan=False, **kwargs)
+
+
 def write_json_atomic(path: str | Path, data: Any) -> None:
-    """Write ``data`` as indented JSON atomically."""
-    write_text_atomic(path, json.dumps(data, indent=2, sort_keys=False) + "\n")
+    """Write ``data`` as indented, strictly valid JSON (NaN and infinity as null) atomically."""
+    write_text_atomic(path, strict_json_dumps(data, indent=2, sort_keys=False) + "\n")
 
 
 @contextmanager

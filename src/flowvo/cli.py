@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
@@ -15,12 +17,49 @@ from flowvo.progress import set_progress_enabled
 Command = Callable[[argparse.Namespace], int]
 
 
+def _bounded(kind: type, low: float, high: float = math.inf, low_open: bool = False) -> Callable[[str], float]:
+    """An argparse ``type=``: a finite ``kind`` (int or float) in [low, high] ((low, high] if ``low_open``)."""
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}, "
+                                             f"got {text!r}") from None
+        if not math.isfinite(value) or value < low or (low_open and value == low) or value > high:
+            interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
+            raise argparse.ArgumentTypeError(f"{text} is outside {interval}")
+        return value
+
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
+POSITIVE_INT = _bounded(int, 1)
+NON_NEGATIVE_INT = _bounded(int, 0)
+FRAME_COUNT = _bounded(int, 2)  # a sequence needs two frames for one motion
+FLOW_SCALE = _bounded(float, 0.0, 2.0, low_open=True)
+IMAGE_SCALE = _bounded(float, 0.0, 4.0, low_open=True)
+
+
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line on stderr (exit 2), like every other flowvo error."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def _force_flag(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument("--force", action="store_true", help=f"replace {what} (otherwise an existing one is refused)")
+
+
 def _cmd_eval(args: argparse.Namespace) -> int:
-    from flowvo.evaluation import evaluate_files, format_table, save_evaluation
+    from flowvo.evaluation import EVALUATION_FILES, evaluate_files, format_table, save_evaluation
+    from flowvo.outputs import prepare_output_dir
 
     evaluation = evaluate_files(args.gt, args.pred, args.align)
     print(format_table(evaluation.metrics))
     if args.out:
+        prepare_output_dir(args.out, EVALUATION_FILES, args.force)
         written = save_evaluation(evaluation, args.out)
         print(f"\nwrote {len(written)} files to {args.out} (metrics.json, plots)")
     return 0
@@ -32,6 +71,7 @@ def _add_eval(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pred", required=True, help="predicted KITTI pose file (12 floats, or frame index + 12)")
     p.add_argument("--align", choices=("none", "6dof", "7dof"), default="none", help="alignment for ATE only")
     p.add_argument("--out", help="folder for metrics.json, per_frame_errors.csv and PNG plots")
+    _force_flag(p, "an earlier evaluation in --out")
     p.set_defaults(func=_cmd_eval)
 
 
@@ -39,7 +79,7 @@ def _cmd_synth(args: argparse.Namespace) -> int:
     from flowvo.synth.dataset import synthesize
 
     folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
-                         args.scene, args.gt_flow, args.workers, args.max_speed)
+                         args.scene, args.gt_flow, args.workers, args.max_speed, args.force)
     for folder in folders:
         print(f"wrote {folder} (synthetic)")
     return 0
@@ -51,34 +91,49 @@ def _add_synth(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("synth", help="render synthetic driving sequences in the KITTI layout (exact GT)")
     p.add_argument("--out", required=True, help="dataset root to write (ROOT/sequences/NN, ROOT/poses)")
     p.add_argument("--sequences", nargs="+", default=["00"], help="sequence names, e.g. 00 01")
-    p.add_argument("--frames", type=int, help="frames per sequence (generated default 400; truncates replays)")
+    p.add_argument("--frames", type=FRAME_COUNT, help="frames per sequence (generated default 400; truncates replays)")
     p.add_argument("--trajectory", help="replay poses: a KITTI pose file, or a folder holding NN.txt per sequence")
-    p.add_argument("--seed", type=int, default=0, help="world and path seed")
-    p.add_argument("--scale", type=float, default=1.0, help="image scale: 1.0 = 1241x376, 0.5 = 620x188")
+    p.add_argument("--seed", type=NON_NEGATIVE_INT, default=0, help="world and path seed")
+    p.add_argument("--scale", type=IMAGE_SCALE, default=1.0, help="image scale: 1.0 = 1241x376, 0.5 = 620x188")
     p.add_argument("--scene", choices=SCENE_TYPES, help="one scene type throughout (default: varied stretches)")
     p.add_argument("--gt-flow", action="store_true", help="also write true forward flow to flow_gt/NNNNNN.npy")
-    p.add_argument("--workers", type=int, help="render processes (default: all cores, at most 8)")
-    p.add_argument("--max-speed", type=float, default=25.0, help="generated paths: top speed in m/s")
+    p.add_argument("--workers", type=_bounded(int, 1, 64), help="render processes (default: all cores, at most 8)")
+    p.add_argument("--max-speed", type=_bounded(float, 0.0, 100.0, low_open=True), default=25.0,
+                   help="generated paths: top speed in m/s")
+    p.add_argument("--force", action="store_true",
+                   help="write into a non-empty --out: sequences rendered differently before are replaced whole, "
+                        "other content is kept (without it a non-empty --out is refused, except to resume)")
     p.set_defaults(func=_cmd_synth)
 
 
 def _cmd_flow(args: argparse.Namespace) -> int:
     from flowvo.flow.cache import FlowCache
+    from flowvo.flow.cache_root import default_cache_root
     from flowvo.flow.registry import create_estimator
-    from flowvo.flow.visualize import save_flow_pictures
+    from flowvo.flow.visualize import flow_picture_names, save_flow_pictures
     from flowvo.kitti.sequence import KittiSequence
+    from flowvo.outputs import prepare_output_dir
 
+    if not args.visualize and (args.gif or args.every != 1):
+        raise FlowvoError("--gif and --every apply to the pictures: give --visualize DIR too")
     sequence = KittiSequence(args.data, args.sequence)
     estimator = create_estimator(args.method, args.flow_weights)
-    cache = FlowCache(args.cache or f"{args.data}/flow_cache", sequence, args.method, args.scale, estimator.params())
+    cache = FlowCache(args.cache or default_cache_root(args.data), sequence, args.method, args.scale,
+                      estimator.params())
+    pairs = range(0, cache.n_pairs, args.every)
+    if args.visualize:
+        prepare_output_dir(args.visualize, flow_picture_names(pairs, args.gif), args.force, args.data, "--visualize")
     timing = cache.compute(estimator)
+    if timing["discarded"]:
+        print(f"discarded an earlier flow cache: {timing['discarded']}")
+    if timing["replaced"]:
+        print(f"recomputed {timing['replaced']} damaged chunk(s) (size, shape or checksum did not match meta.json)")
     if timing["pairs"]:
         print(f"computed {timing['pairs']} pairs: {timing['flow_s'] / timing['pairs']:.4f} s/pair flow, "
               f"{timing['read_s'] / timing['pairs']:.4f} s/pair image read")
     h, w = cache.flow_size_hw
     print(f"flow cache complete: {cache.directory} ({cache.n_pairs} pairs, {w}x{h})")
     if args.visualize:
-        pairs = range(0, cache.n_pairs, args.every)
         magnitude = max(float(np.percentile(np.hypot(*cache.read(p).transpose(2, 0, 1)), 99)) for p in pairs[:20])
         written = save_flow_pictures(((p, cache.read(p)) for p in pairs), args.visualize, magnitude, args.gif)
         print(f"wrote {len(written)} pictures to {args.visualize} (colour wheel, max {magnitude:.1f} px)")
@@ -92,12 +147,14 @@ def _add_flow(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--data", required=True, help="dataset root in the KITTI layout")
     p.add_argument("--sequence", required=True, help="sequence name, e.g. 09")
     p.add_argument("--method", default="dis-fast", choices=available_methods(), help="flow method")
-    p.add_argument("--scale", type=float, default=0.5, help="working resolution relative to the frames")
-    p.add_argument("--cache", help="cache root (default DATA/flow_cache)")
+    p.add_argument("--scale", type=FLOW_SCALE, default=0.5, help="working resolution relative to the frames")
+    p.add_argument("--cache", help="cache root (default: ~/.cache/flowvo/flow/<dataset>-<hash>, "
+                                   "$XDG_CACHE_HOME respected)")
     p.add_argument("--flow-weights", help="local weights for flownets / raft-*")
     p.add_argument("--visualize", metavar="DIR", help="write colour-wheel pictures of the flow here")
-    p.add_argument("--every", type=int, default=1, help="with --visualize: every N-th pair")
+    p.add_argument("--every", type=POSITIVE_INT, default=1, help="with --visualize: every N-th pair")
     p.add_argument("--gif", action="store_true", help="with --visualize: also an animated flow.gif")
+    _force_flag(p, "earlier pictures in --visualize")
     p.set_defaults(func=_cmd_flow)
 
 
@@ -105,7 +162,11 @@ def _cmd_train(args: argparse.Namespace) -> int:
     from flowvo.model.config import SPLITS, TrainConfig
     from flowvo.model.train import train
 
-    config = TrainConfig.from_yaml(args.config) if args.config else TrainConfig()
+    run_config = Path(args.out or TrainConfig().out, "config.yaml")
+    if args.config:
+        config = TrainConfig.from_yaml(args.config)
+    else:  # --resume alone continues with the run's own settings
+        config = TrainConfig.from_yaml(run_config) if args.resume and run_config.is_file() else TrainConfig()
     overrides = {"data": args.data, "out": args.out, "epochs": args.epochs, "batch_size": args.batch_size,
                  "learning_rate": args.lr, "seed": args.seed, "flow_method": args.flow_method,
                  "flow_scale": args.flow_scale, "flow_cache": args.cache, "device": args.device}
@@ -126,13 +187,14 @@ def _cmd_train(args: argparse.Namespace) -> int:
         config.model.stack = args.stack
     if not config.data:
         raise FlowvoError("no data: give --data ROOT or 'data:' in the config")
+    config.validate()
     from flowvo.model.network import OdometryNet, flops_per_frame, parameter_count
 
     network = OdometryNet(config.model)
     print(f"model: width {config.model.width}, input {config.model.input_hw[1]}x{config.model.input_hw[0]}, "
           f"head {config.model.head}, stack {config.model.stack}: {parameter_count(network) / 1e6:.2f} M parameters, "
           f"{flops_per_frame(network) / 1e9:.3f} GFLOP per frame")
-    out = train(config, resume=args.resume)
+    out = train(config, resume=args.resume, force=args.force)
     print(f"training finished: {out}/best.pt, log {out}/log.csv, curve {out}/learning_curve.png")
     return 0
 
@@ -147,18 +209,21 @@ def _add_train(sub: argparse._SubParsersAction) -> None:
                         "separate validation set: epoch selection then sees the test sequences)")
     p.add_argument("--train", nargs="+", help="training sequences")
     p.add_argument("--val", nargs="+", help="validation sequences")
-    p.add_argument("--epochs", type=int)
-    p.add_argument("--batch-size", type=int)
-    p.add_argument("--lr", type=float)
-    p.add_argument("--seed", type=int)
-    p.add_argument("--width", type=float, help="channel width multiplier (1.0 = thesis network)")
+    p.add_argument("--epochs", type=POSITIVE_INT)
+    p.add_argument("--batch-size", type=POSITIVE_INT)
+    p.add_argument("--lr", type=_bounded(float, 0.0, 10.0, low_open=True))
+    p.add_argument("--seed", type=NON_NEGATIVE_INT)
+    p.add_argument("--width", type=_bounded(float, 0.01, 4.0), help="channel width multiplier (1.0 = thesis network)")
     p.add_argument("--head", choices=("planar", "se3"))
-    p.add_argument("--stack", type=int, help="consecutive flow fields as input")
+    p.add_argument("--stack", type=_bounded(int, 1, 16), help="consecutive flow fields as input")
     p.add_argument("--flow-method", help="flow method of the caches")
-    p.add_argument("--flow-scale", type=float, help="flow working scale relative to the frames")
-    p.add_argument("--cache", help="flow cache root (default DATA/flow_cache)")
+    p.add_argument("--flow-scale", type=FLOW_SCALE, help="flow working scale relative to the frames")
+    p.add_argument("--cache", help="flow cache root (default: the user's cache folder, see 'flowvo flow --help')")
     p.add_argument("--device", help="cpu or cuda")
-    p.add_argument("--resume", action="store_true", help="continue from OUT/last.pt")
+    p.add_argument("--resume", action="store_true",
+                   help="continue from OUT/last.pt with the run's settings (changing one that shapes the result "
+                        "is refused)")
+    _force_flag(p, "an earlier training run in --out (its checkpoints and log are removed first)")
     p.set_defaults(func=_cmd_train)
 
 
@@ -173,7 +238,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
                              fx=args.fx, fy=args.fy, cx=args.cx, cy=args.cy, method=args.method, model=args.model,
                              flow_method=args.flow_method, classical_scale=args.scale_from,
                              max_frames=args.max_frames, mcap=args.mcap, frame_id=args.frame_id,
-                             child_frame_id=args.child_frame_id))
+                             child_frame_id=args.child_frame_id, force=args.force))
     print(f"{summary['label']} on {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
@@ -208,20 +273,29 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--flow-method", help="flow method (default dis-medium; cnn: the model's)")
     p.add_argument("--scale-from", choices=("height", "gt"), default="height",
                    help="classical method's metric scale: the 1.65 m camera height, or GT step lengths (labelled)")
-    p.add_argument("--max-frames", type=int, help="stop after this many frames")
+    p.add_argument("--max-frames", type=FRAME_COUNT, help="stop after this many frames")
     p.add_argument("--mcap", action="store_true", help="also write NAME.mcap (nav_msgs/Odometry, /tf, nav_msgs/Path); "
                                                         "always on for --bag")
     p.add_argument("--frame-id", default="odom", help="MCAP parent frame id (default odom)")
     p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id (default camera_optical)")
     p.add_argument("--cache", help=argparse.SUPPRESS)
+    _force_flag(p, "this drive's earlier result in --out (poses, timing, run.json, eval_NAME/, NAME.mcap)")
     p.set_defaults(func=_cmd_run)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    from flowvo.model.checkpoint import packaged_model_path, write_slim_checkpoint
+    from flowvo.model.checkpoint import packaged_model_path, read_checkpoint, write_slim_checkpoint
     from flowvo.model.export import export_onnx, export_torchscript
+    from flowvo.outputs import prepare_output_file
 
     model = args.model or packaged_model_path()
+    read_checkpoint(model)  # a clear error for a missing or foreign file before anything is written
+    out = Path(args.out)
+    if out.resolve() == Path(model).resolve():
+        raise FlowvoError("--out is the --model file itself; write the export elsewhere", out)
+    extra = [out.with_name(out.name + ".json")] if args.format != "slim" else []  # the description
+    for target in (out, *extra):
+        prepare_output_file(target, args.force)
     if args.format == "slim":
         written = [write_slim_checkpoint(model, args.out)]
     elif args.format == "onnx":
@@ -247,13 +321,14 @@ def _add_export(sub: argparse._SubParsersAction) -> None:
                    help="onnx / torchscript: run only the direct pass, not its average with the mirrored one "
                         "(half the network cost; keeps the small constant heading offset the average cancels)")
     p.add_argument("--opset", type=int, default=ONNX_OPSET, help="onnx: opset version")
+    _force_flag(p, "an existing --out file")
     p.set_defaults(func=_cmd_export)
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from flowvo.report import write_report
 
-    print(f"report: {write_report(args.runs, args.out)}")
+    print(f"report: {write_report(args.runs, args.out, args.force)}")
     return 0
 
 
@@ -261,13 +336,14 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("report", help="one HTML page comparing run folders: tables, paths, error curves, timing")
     p.add_argument("runs", nargs="+", help="output folders of 'flowvo run'")
     p.add_argument("--out", required=True, help="report folder (index.html + PNGs)")
+    _force_flag(p, "an earlier report in --out")
     p.set_defaults(func=_cmd_report)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
     from flowvo.demo import demo
 
-    report = demo(args.out, args.data, args.sequence, args.model, args.frames)
+    report = demo(args.out, args.data, args.sequence, args.model, args.frames, args.force)
     print(f"report: {report}")
     if args.data is None:
         print("(synthetic data: a held-out world and drive rendered by flowvo synth, not real KITTI)")
@@ -279,8 +355,9 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--data", help="KITTI root (default: render a synthetic held-out drive)")
     p.add_argument("--sequence", help="sequence of --data")
     p.add_argument("--model", help="checkpoint (default: the packaged model)")
-    p.add_argument("--frames", type=int, default=900, help="frames of the synthetic drive")
+    p.add_argument("--frames", type=FRAME_COUNT, default=900, help="frames of the synthetic drive")
     p.add_argument("--out", default="runs/demo", help="output folder")
+    _force_flag(p, "the runs and report of an earlier demo in --out")
     p.set_defaults(func=_cmd_demo)
 
 
@@ -312,8 +389,8 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
         p.add_argument(f"--{name}", type=float)
     p.add_argument("--methods", nargs="+", choices=("flowvo", "cnn", "classical"),
                    default=["flowvo", "cnn", "classical"], help="methods in table order (default method first)")
-    p.add_argument("--frames", type=int, default=200, help="frames per run (at least 2)")
-    p.add_argument("--repeat", type=int, default=3, help="runs per method; the table shows medians")
+    p.add_argument("--frames", type=FRAME_COUNT, default=200, help="frames per run (at least 2)")
+    p.add_argument("--repeat", type=POSITIVE_INT, default=3, help="runs per method; the table shows medians")
     p.add_argument("--model", help="checkpoint for cnn (default: the packaged model)")
     p.add_argument("--flow-method", help="override the flow method")
     p.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
@@ -328,7 +405,7 @@ SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
-    parser = argparse.ArgumentParser(prog="flowvo", description="Learned visual odometry from dense optical flow.")
+    parser = _Parser(prog="flowvo", description="Learned visual odometry from dense optical flow.")
     parser.add_argument("--version", action="version", version=f"flowvo {__version__}")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
@@ -348,6 +425,13 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except FlowvoError as error:
         print(f"flowvo {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:  # every output is written atomically: finished chunks, frames, epochs remain
+        print(f"flowvo {args.command}: interrupted (resumable state kept)", file=sys.stderr)
+        return 130
+    except OSError as error:  # permission denied, read-only, disk full, a file where a folder should be
+        where = f"{error.filename}: " if error.filename else ""
+        print(f"flowvo {args.command}: error: {where}{error.strerror or error}", file=sys.stderr)
         return 2
 
 

@@ -19,21 +19,23 @@ DEMO_MAX_SPEED_MPS = 15.0  # an urban drive, like the KITTI trajectories the pac
 
 
 def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence: str | None = None,
-         model: str | Path | None = None, frames: int = DEMO_FRAMES) -> Path:
-    """Run the whole product once and return the report's index.html."""
+         model: str | Path | None = None, frames: int = DEMO_FRAMES, force: bool = False) -> Path:
+    """Run the whole product once and return the report's index.html; ``force`` replaces the runs and the
+    report of an earlier demo in ``out`` (the rendered drive is reused when it is the same)."""
     out = Path(out)
     if data is None:
         data, sequence = out / "data", "00"
-        synthesize(data, [sequence], seed=DEMO_SEED, frames=frames, scale=DEMO_SCALE, max_speed_mps=DEMO_MAX_SPEED_MPS)
+        synthesize(data, [sequence], seed=DEMO_SEED, frames=frames, scale=DEMO_SCALE, max_speed_mps=DEMO_MAX_SPEED_MPS,
+                   force=force)
     elif sequence is None:
         raise FlowvoError("with --data, also give --sequence NN")
     model = Path(model) if model else packaged_model_path()
     runs = [run(RunOptions(data=str(data), sequence=sequence, out=str(out / "learned"), model=str(model),
-                           flow_cache=str(out / "flow_cache")))]
+                           flow_cache=str(out / "flow_cache"), force=force))]
     has_gt = KittiSequence(data, sequence).has_poses
     scale_sources = ("gt", "height") if has_gt else ("height",)
     for source in scale_sources:
         runs.append(run(RunOptions(data=str(data), sequence=sequence, out=str(out / f"classical_{source}"),
-                                   method="classical", classical_scale=source)))
+                                   method="classical", classical_scale=source, force=force)))
     folders = [out / "learned"] + [out / f"classical_{s}" for s in scale_sources]
-    return write_report(folders, out / "report")
+    return write_report(folders, out / "report", force)

@@ -8,10 +8,14 @@ from pathlib import Path
 import numpy as np
 
 from flowvo.atomic import atomic_open, write_json_atomic
+from flowvo.errors import FlowvoError
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics import kitti_odometry as kitti
 from flowvo.metrics.trajectory_errors import ate_rmse_m, per_frame_errors, rpe
 from flowvo.trajectory import Trajectory
+
+EVALUATION_FILES = ("metrics.json", "per_frame_errors.csv", "path_xz.png", "t_err_vs_length.png",
+                    "r_err_vs_length.png", "t_err_vs_speed.png", "r_err_vs_speed.png", "frame_error_histograms.png")
 
 
 @dataclass(frozen=True)
@@ -25,8 +29,22 @@ class Evaluation:
     frame_errors: dict[str, np.ndarray]
 
 
+def check_evaluable(gt: Trajectory, pred: Trajectory, gt_source: str | Path = "ground truth",
+                    pred_source: str | Path = "prediction") -> None:
+    """Raise a :class:`FlowvoError` naming the file unless ``gt`` holds every frame 0..N-1 and shares at
+    least 2 frames with ``pred`` (one-frame errors and alignment need two)."""
+    if not gt.is_complete:
+        missing = np.setdiff1d(np.arange(gt.frame_ids[-1] + 1), gt.frame_ids)
+        raise FlowvoError(f"ground truth must hold every frame 0..N-1; frame {missing[0]} is missing", gt_source)
+    shared = len(np.intersect1d(gt.frame_ids, pred.frame_ids))
+    if shared < 2:
+        raise FlowvoError(f"shares {shared} frame(s) with the ground truth ({len(gt)} frames from 0); the "
+                          "evaluation needs at least 2", pred_source)
+
+
 def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> Evaluation:
     """The KITTI odometry metric (needs no alignment), ATE after ``alignment``, and one-frame RPE."""
+    check_evaluable(gt, pred)
     segments = kitti.sequence_segment_errors(gt, pred)
     if len(segments):
         metrics = kitti.summarize(segments)
@@ -50,7 +68,9 @@ def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> Evalu
 
 def evaluate_files(gt_path: str | Path, pred_path: str | Path, alignment: str = "none") -> Evaluation:
     """Read two KITTI pose files and evaluate; the files are named in the metrics."""
-    evaluation = evaluate(read_kitti_poses(gt_path), read_kitti_poses(pred_path), alignment)
+    gt, pred = read_kitti_poses(gt_path), read_kitti_poses(pred_path)
+    check_evaluable(gt, pred, gt_path, pred_path)
+    evaluation = evaluate(gt, pred, alignment)
     evaluation.metrics["gt_file"] = str(gt_path)
     evaluation.metrics["pred_file"] = str(pred_path)
     return evaluation

@@ -9,7 +9,6 @@ with ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.geometry import planar_targets
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
+from flowvo.outputs import prepare_output_dir, run_outputs
 from flowvo.sources.base import FrameSource
 from flowvo.trajectory import Trajectory
 
@@ -52,6 +52,7 @@ class RunOptions:
     classical_scale: str = "height"
     max_frames: int | None = None
     label: str | None = None
+    force: bool = False  # replace the earlier result of this drive in ``out`` (else refused)
     mcap: bool = False
     frame_id: str = "odom"
     child_frame_id: str = "camera_optical"
@@ -117,9 +118,12 @@ def run(options: RunOptions) -> dict:
     from flowvo.stream import stream_odometry
 
     source = open_source(options)
+    if source.frame_count is not None and source.frame_count < 2:
+        raise FlowvoError(f"has {source.frame_count} frame(s); odometry needs at least 2", source.name)
     step = make_step(options, source)
-    out = Path(options.out)
-    out.mkdir(parents=True, exist_ok=True)
+    write_mcap = options.mcap or bool(options.bag)
+    produces = run_outputs(source.name) + ([f"{source.name}.mcap"] if write_mcap else [])
+    out = prepare_output_dir(options.out, produces, options.force, dataset=options.data)
     result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name)
     trajectory = Trajectory.from_poses(result.T_world_cam)
     write_kitti_poses(out / f"{source.name}.txt", trajectory)
@@ -137,7 +141,7 @@ def run(options: RunOptions) -> dict:
         "intrinsics": vars(source.intrinsics) if hasattr(source.intrinsics, "__dict__") else None,
         "frames_per_second": timing["frames_per_second"],
     }
-    if options.mcap or options.bag:
+    if write_mcap:
         from flowvo.ros.odometry_mcap import write_odometry_mcap
 
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,

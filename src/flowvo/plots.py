@@ -53,7 +53,8 @@ def plot_error_curves(curves: dict[str, list[dict]], key: str, xlabel: str, stem
         axis.set_ylabel(ylabel)
         axis.grid(alpha=0.3)
         axis.set_ylim(bottom=0)
-        axis.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize="small")
+        if axis.get_legend_handles_labels()[0]:  # no curve when the path has no 100 m segment
+            axis.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), fontsize="small")
         short = "t_err" if metric.startswith("t") else "r_err"
         written.append(_save(figure, out / f"{short}_vs_{stem}.png"))
     return written

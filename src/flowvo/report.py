@@ -12,11 +12,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from flowvo import plots
-from flowvo.atomic import write_text_atomic
+from flowvo.atomic import strict_json_dumps, write_text_atomic
 from flowvo.errors import FlowvoError
 from flowvo.evaluation import Evaluation, evaluate, pooled_summary
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import KittiSequence
+from flowvo.outputs import prepare_output_dir, validate_name
 
 REFERENCE_LABEL = "reference system (2016), published"
 REFERENCE_FIGURES = {  # sequence -> (t_err %, r_err deg/m), as published; 10 alone was not given
@@ -25,6 +26,8 @@ REFERENCE_FIGURES = {  # sequence -> (t_err %, r_err deg/m), as published; 10 al
     "average 08-10": (10.77, 0.0623),
 }
 REFERENCE_SECONDS_PER_FRAME = 0.633
+RUN_KEYS = ("label", "sequence", "data", "synthetic", "frames", "poses")
+TIMING_STAGES = ("image_read", "flow", "network", "total")
 
 
 @dataclass
@@ -40,16 +43,40 @@ class RunRecord:
 def load_run(folder: str | Path) -> RunRecord:
     """Read run.json, timing.json and the poses of a ``flowvo run`` output folder."""
     folder = Path(folder)
-    for name in ("run.json", "timing.json"):
-        if not (folder / name).is_file():
-            raise FlowvoError(f"not a flowvo run folder (no {name})", folder)
-    summary = json.loads((folder / "run.json").read_text())
-    timing = json.loads((folder / "timing.json").read_text())
+    summary = _read_record(folder / "run.json", RUN_KEYS)
+    if not all(isinstance(summary[key], str) for key in ("label", "sequence", "data", "poses")):
+        raise FlowvoError("label, sequence, data and poses must be text", folder / "run.json")
+    timing = _read_record(folder / "timing.json", ("seconds_per_frame",))
+    seconds = timing["seconds_per_frame"]
+    if not isinstance(seconds, dict) or not all(_is_seconds(seconds.get(k)) for k in TIMING_STAGES) \
+            or seconds["total"] <= 0:
+        raise FlowvoError(f"seconds_per_frame must give {', '.join(TIMING_STAGES)} as seconds (total > 0)",
+                          folder / "timing.json")
     sequence = KittiSequence(summary["data"], summary["sequence"])
     evaluation = None
     if sequence.has_poses:
-        evaluation = evaluate(sequence.poses, read_kitti_poses(folder / summary["poses"]))
+        poses = folder / validate_name(summary["poses"], "run.json 'poses' file")
+        evaluation = evaluate(sequence.poses, read_kitti_poses(poses))
     return RunRecord(folder, summary, timing, evaluation)
+
+
+def _is_seconds(value: object) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and 0 <= value < float("inf")
+
+
+def _read_record(path: Path, keys: tuple[str, ...]) -> dict:
+    """A JSON object written by ``flowvo run``, checked to hold ``keys``; errors name the file."""
+    if not path.is_file():
+        raise FlowvoError(f"not a flowvo run folder (no {path.name})", path.parent)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise FlowvoError(f"not valid JSON ({getattr(error, 'msg', 'not UTF-8 text')})", path,
+                          getattr(error, "lineno", None)) from None
+    missing = [key for key in keys if not isinstance(data, dict) or key not in data]
+    if missing:
+        raise FlowvoError(f"lacks {', '.join(missing)}: not written by flowvo run, or damaged", path)
+    return data
 
 
 def _fmt(value: float | None, digits: int) -> str:
@@ -145,13 +172,13 @@ tr.ref{font-style:italic;background:#f6f6f6}img{max-width:100%;border:1px solid 
 figure{display:inline-block;vertical-align:top;width:48%;margin:0.5em 1%}figure.wide{width:70%}"""
 
 
-def write_report(run_folders: list[str | Path], out_dir: str | Path) -> Path:
-    """Write ``out_dir/index.html`` and its PNGs; returns the HTML path."""
+def write_report(run_folders: list[str | Path], out_dir: str | Path, force: bool = False) -> Path:
+    """Write ``out_dir/index.html`` and its PNGs; returns the HTML path. An earlier report there is
+    refused unless ``force``."""
     if not run_folders:
         raise FlowvoError("no run folders given")
     runs = [load_run(folder) for folder in run_folders]
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out_dir, ["index.html"], force)
     results_html, records = _results_table(runs)
     figures = _figures(runs, out)
     synthetic = any(r.summary["synthetic"] for r in runs)
@@ -181,7 +208,7 @@ def write_report(run_folders: list[str | Path], out_dir: str | Path) -> Path:
         *(f"<figure{' class=wide' if name.startswith(('path_', 'frame_errors_')) else ''}><img src='{name}' "
           f"alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}</figcaption></figure>"
           for name, caption in figures),
-        f"<script type='application/json' id='results'>{json.dumps(records)}</script>",
+        f"<script type='application/json' id='results'>{strict_json_dumps(records)}</script>",
     ]
     page = (f"<!DOCTYPE html><html><head><meta charset='utf-8'><title>flowvo report</title>"
             f"<style>{STYLE}</style></head><body>{''.join(body)}</body></html>\n")

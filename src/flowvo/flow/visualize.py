@@ -56,6 +56,14 @@ def color_legend(size_px: int = 101) -> np.ndarray:
     return legend
 
 
+PICTURE_NAME = "flow_{:06d}.png"
+
+
+def flow_picture_names(pairs: range, gif: bool) -> list[str]:
+    """The files :func:`save_flow_pictures` writes for ``pairs``."""
+    return [PICTURE_NAME.format(index) for index in pairs] + ["legend.png"] + (["flow.gif"] if gif else [])
+
+
 def save_flow_pictures(flows, out_dir: str | Path, max_magnitude_px: float, gif: bool = False) -> list[Path]:
     """Write ``flow_NNNNNN.png`` per field of ``flows`` (an iterable of (index, flow)), ``legend.png`` and,
     optionally, ``flow.gif`` (10 fps, half size). All pictures share one magnitude scale."""
@@ -64,7 +72,7 @@ def save_flow_pictures(flows, out_dir: str | Path, max_magnitude_px: float, gif:
     written, frames = [], []
     for index, flow in flows:
         picture = flow_to_color(flow, max_magnitude_px)
-        path = out / f"flow_{index:06d}.png"
+        path = out / PICTURE_NAME.format(index)
         with atomic_path(path) as tmp:
             cv2.imwrite(str(tmp), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
         written.append(path)

@@ -38,7 +38,7 @@ def read_calibration(path: str | Path) -> Calibration:
     if not path.is_file():
         raise FlowvoError("calibration file not found", path)
     matrices: dict[str, np.ndarray] = {}
-    with open(path) as handle:
+    with open(path, encoding="utf-8", errors="replace") as handle:  # binary bytes then fail as text, per line
         for line_number, line in enumerate(handle, start=1):
             if not line.strip():
                 continue

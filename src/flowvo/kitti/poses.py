@@ -17,51 +17,78 @@ from flowvo.errors import FlowvoError
 from flowvo.trajectory import Trajectory
 
 _ORTHONORMAL_TOLERANCE = 1e-2
+MAX_FRAME_INDEX = 2**31
+MAX_TRANSLATION_M = 1e8  # beyond UTM and Earth-centred coordinates; squares stay far from overflow
+
+
+def _numbers(fields: list[str], path: Path, line_number: int) -> list[float]:
+    """The 12 or 13 numbers of one line; raises naming the line."""
+    try:
+        if any("_" in field for field in fields):  # Python's float() would read 1_0 as 10
+            raise ValueError
+        values = [float(field) for field in fields]
+    except ValueError:
+        raise FlowvoError("expected 12 numbers (or frame index + 12), found text", path, line_number) from None
+    if len(values) not in (12, 13):
+        raise FlowvoError(f"expected 12 numbers (or frame index + 12), found {len(values)}", path, line_number)
+    return values
+
+
+def _pose(values: list[float], path: Path, line_number: int) -> np.ndarray:
+    """The 4x4 pose of 12 row-major numbers, checked to be finite with a proper rotation."""
+    pose = np.eye(4)
+    pose[:3, :4] = np.reshape(values, (3, 4))
+    if not np.all(np.isfinite(pose)):
+        raise FlowvoError("pose contains NaN or infinity", path, line_number)
+    if np.abs(pose[:3, 3]).max() > MAX_TRANSLATION_M:
+        raise FlowvoError(f"translation beyond {MAX_TRANSLATION_M:.0e} m (wrong units or a damaged file?)", path,
+                          line_number)
+    rotation = pose[:3, :3]
+    if np.abs(rotation @ rotation.T - np.eye(3)).max() > _ORTHONORMAL_TOLERANCE:
+        raise FlowvoError("rotation part is not orthonormal", path, line_number)
+    if np.linalg.det(rotation) < 0:
+        raise FlowvoError("rotation part has determinant -1: a reflection, not a rotation", path, line_number)
+    return pose
 
 
 def read_kitti_poses(path: str | Path) -> Trajectory:
-    """Read a KITTI pose file in the 12-float or the frame-indexed 13-number form."""
+    """Read a KITTI pose file in the 12-float or the frame-indexed 13-number form.
+
+    Every line is checked: numbers only, finite, translations within 1e8 m, a proper rotation (orthonormal
+    to 1e-2, determinant +1), frame indices non-negative integers increasing; a binary file is refused.
+    """
     path = Path(path)
     if not path.is_file():
-        raise FlowvoError("pose file not found", path)
+        raise FlowvoError("pose file not found" if not path.exists() else "is not a file", path)
+    try:
+        with open(path, encoding="utf-8-sig") as handle:  # -sig: a byte-order mark is not a number
+            lines = handle.readlines()
+    except UnicodeDecodeError:
+        raise FlowvoError("not a text pose file (binary data or not UTF-8)", path) from None
     frame_ids: list[int] = []
     matrices: list[np.ndarray] = []
     indexed: bool | None = None
-    with open(path) as handle:
-        for line_number, line in enumerate(handle, start=1):
-            fields = line.split()
-            if not fields:
-                continue
-            try:
-                values = [float(field) for field in fields]
-            except ValueError:
-                raise FlowvoError("expected 12 numbers (or frame index + 12), found text", path, line_number) from None
-            if len(values) not in (12, 13):
-                raise FlowvoError(
-                    f"expected 12 numbers (or frame index + 12), found {len(values)}", path, line_number
-                )
-            line_indexed = len(values) == 13
-            if indexed is None:
-                indexed = line_indexed
-            elif indexed != line_indexed:
-                raise FlowvoError("mixes 12-number and frame-indexed 13-number lines", path, line_number)
-            if line_indexed:
-                if not values[0].is_integer() or values[0] < 0:
-                    raise FlowvoError(f"frame index {fields[0]} is not a non-negative integer", path, line_number)
-                frame_id = int(values[0])
-                if frame_ids and frame_id <= frame_ids[-1]:
-                    raise FlowvoError(f"frame index {frame_id} is not increasing", path, line_number)
-            else:
-                frame_id = len(frame_ids)
-            pose = np.eye(4)
-            pose[:3, :4] = np.reshape(values[-12:], (3, 4))
-            if not np.all(np.isfinite(pose)):
-                raise FlowvoError("pose contains NaN or infinity", path, line_number)
-            rotation = pose[:3, :3]
-            if np.abs(rotation @ rotation.T - np.eye(3)).max() > _ORTHONORMAL_TOLERANCE:
-                raise FlowvoError("rotation part is not orthonormal", path, line_number)
-            frame_ids.append(frame_id)
-            matrices.append(pose)
+    for line_number, line in enumerate(lines, start=1):
+        fields = line.split()
+        if not fields:
+            continue
+        values = _numbers(fields, path, line_number)
+        line_indexed = len(values) == 13
+        if indexed is None:
+            indexed = line_indexed
+        elif indexed != line_indexed:
+            raise FlowvoError("mixes 12-number and frame-indexed 13-number lines", path, line_number)
+        if not line_indexed:
+            frame_id = len(frame_ids)
+        elif not values[0].is_integer() or not 0 <= values[0] < MAX_FRAME_INDEX:
+            raise FlowvoError(f"frame index {fields[0]} is not an integer in 0..{MAX_FRAME_INDEX - 1}", path,
+                              line_number)
+        else:
+            frame_id = int(values[0])
+            if frame_ids and frame_id <= frame_ids[-1]:
+                raise FlowvoError(f"frame index {frame_id} is not increasing", path, line_number)
+        matrices.append(_pose(values[-12:], path, line_number))
+        frame_ids.append(frame_id)
     if not matrices:
         raise FlowvoError("pose file is empty", path)
     return Trajectory(np.asarray(frame_ids, dtype=np.int64), np.stack(matrices))
@@ -105,16 +132,21 @@ def rotation_to_quaternion_xyzw(rotation: np.ndarray) -> np.ndarray:
 
 
 def write_tum_trajectory(path: str | Path, trajectory: Trajectory, timestamps_s: np.ndarray) -> None:
-    """Write TUM format ``timestamp tx ty tz qx qy qz qw`` atomically; ``timestamps_s`` (N,) holds one
-    time in seconds per pose (KITTI: times.txt; video and bags: their own stamps)."""
-    if len(timestamps_s) != len(trajectory):
-        raise ValueError(f"{len(timestamps_s)} timestamps for {len(trajectory)} poses")
+    """Write TUM format ``timestamp tx ty tz qx qy qz qw`` atomically.
+
+    ``timestamps_s`` (N,): one time in seconds per pose of ``trajectory`` (for a KITTI sequence, its
+    times.txt entries of the trajectory's frames), so tools such as evo associate poses by real time.
+    """
+    timestamps_s = np.asarray(timestamps_s, dtype=np.float64)
+    if timestamps_s.shape != (len(trajectory),) or not np.all(np.isfinite(timestamps_s)):
+        raise ValueError(f"need one finite timestamp per pose: {len(trajectory)} poses, timestamps "
+                         f"{timestamps_s.shape}")
     lines = []
-    for stamp, pose in zip(timestamps_s, trajectory.T_world_cam, strict=True):
+    for time_s, pose in zip(timestamps_s, trajectory.T_world_cam, strict=True):
         q = rotation_to_quaternion_xyzw(pose[:3, :3])
         t = pose[:3, 3]
         lines.append(
-            f"{stamp:.9f} {t[0]:.9f} {t[1]:.9f} {t[2]:.9f} "
+            f"{time_s:.9f} {t[0]:.9f} {t[1]:.9f} {t[2]:.9f} "
             f"{q[0]:.9f} {q[1]:.9f} {q[2]:.9f} {q[3]:.9f}"
         )
     with atomic_open(path) as handle:

@@ -6,6 +6,7 @@ Layout: ``<root>/sequences/NN/image_{0,1,2,3}/NNNNNN.png``, ``calib.txt``, ``tim
 
 from __future__ import annotations
 
+import math
 import re
 import struct
 from functools import cached_property
@@ -17,6 +18,7 @@ import numpy as np
 from flowvo.errors import FlowvoError
 from flowvo.kitti.calib import Calibration, read_calibration
 from flowvo.kitti.poses import read_kitti_poses
+from flowvo.outputs import validate_name
 from flowvo.trajectory import Trajectory
 
 _FRAME_NAME = re.compile(r"^(\d{6})\.png$")
@@ -33,6 +35,13 @@ def png_size(path: Path) -> tuple[int, int]:
     return int(height), int(width)
 
 
+def sequence_name(name: str) -> str:
+    """The canonical name of a sequence: a plain name (see :func:`flowvo.outputs.validate_name`), digits
+    zero-padded to two as KITTI names them (``9`` -> ``09``, ``000`` -> ``00``)."""
+    text = validate_name(name)
+    return f"{int(text):02d}" if text.isdigit() else text
+
+
 class KittiSequence:
     """One odometry sequence. Frames are read on demand, in order, never all at once.
 
@@ -42,7 +51,7 @@ class KittiSequence:
 
     def __init__(self, root: str | Path, sequence: str, camera: str = "image_0") -> None:
         self.root = Path(root)
-        self.sequence = f"{int(sequence):02d}" if str(sequence).isdigit() else str(sequence)
+        self.sequence = sequence_name(sequence)
         if camera not in CAMERAS:
             raise FlowvoError(f"unknown camera {camera!r}; expected one of {', '.join(CAMERAS)}")
         self.camera = camera
@@ -60,8 +69,8 @@ class KittiSequence:
         numbered: list[tuple[int, Path]] = []
         for path in image_dir.iterdir():
             match = _FRAME_NAME.match(path.name)
-            if match is None:
-                if path.suffix.lower() == ".png":
+            if match is None:  # hidden files (e.g. a killed writer's .000004.x1y2.png) are never frames
+                if path.suffix.lower() == ".png" and not path.name.startswith("."):
                     raise FlowvoError("frame file name must be six digits, e.g. 000000.png", path)
                 continue
             numbered.append((int(match.group(1)), path))
@@ -86,8 +95,8 @@ class KittiSequence:
     def _read_times(path: Path, n_frames: int) -> np.ndarray:
         if not path.is_file():
             raise FlowvoError("times.txt not found", path)
-        values = []
-        with open(path) as handle:
+        values: list[float] = []
+        with open(path, encoding="utf-8", errors="replace") as handle:
             for line_number, line in enumerate(handle, start=1):
                 if not line.strip():
                     continue
@@ -95,12 +104,23 @@ class KittiSequence:
                     values.append(float(line))
                 except ValueError:
                     raise FlowvoError("expected one timestamp in seconds per line", path, line_number) from None
+                if not math.isfinite(values[-1]):
+                    raise FlowvoError("timestamp is not a finite number of seconds", path, line_number)
+                if len(values) > 1 and values[-1] <= values[-2]:
+                    raise FlowvoError("timestamps must increase; this one does not", path, line_number)
         if len(values) != n_frames:
             raise FlowvoError(f"has {len(values)} timestamps for {n_frames} frames", path)
         return np.asarray(values)
 
     def __len__(self) -> int:
         return len(self.image_paths)
+
+    def require_frames(self, minimum: int, purpose: str) -> None:
+        """Raise a :class:`FlowvoError` unless the sequence has at least ``minimum`` frames; ``purpose``
+        (e.g. "odometry") says in the message what needs them."""
+        if len(self) < minimum:
+            raise FlowvoError(f"has {len(self)} frame(s); {purpose} needs at least {minimum}",
+                              self.directory / self.camera)
 
     @cached_property
     def calibration(self) -> Calibration:

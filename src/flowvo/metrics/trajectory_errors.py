@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.geometry import invert_se3
-from flowvo.metrics.kitti_odometry import rotation_error_rad, translation_error_m
+from flowvo.geometry import invert_se3, relative_motions, rotation_angle_between_rad
 from flowvo.trajectory import Trajectory, common_frames
 
 ALIGNMENTS = ("none", "6dof", "7dof")
@@ -54,15 +53,19 @@ def ate_rmse_m(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> flo
 
 
 def per_frame_errors(gt: Trajectory, pred: Trajectory) -> dict[str, np.ndarray]:
-    """Relative pose error between consecutive common frames: translation (m) and rotation (deg) each."""
+    """Relative pose error between consecutive common frames: translation (m) and rotation (deg) each.
+
+    With the motions ``D_gt``, ``D_pred`` of a step, the error ``D_pred^-1 D_gt`` has translation norm
+    ``||t_gt - t_pred||`` and the rotation angle between ``R_pred`` and ``R_gt``; both are computed so
+    that identical motions give exactly 0 (no rounding floor), as evo reports.
+    """
     gt_c, pred_c = common_frames(gt, pred)
-    delta_gt = invert_se3(gt_c.T_world_cam[:-1]) @ gt_c.T_world_cam[1:]
-    delta_pred = invert_se3(pred_c.T_world_cam[:-1]) @ pred_c.T_world_cam[1:]
-    error = invert_se3(delta_pred) @ delta_gt
+    delta_gt = relative_motions(gt_c.T_world_cam)
+    delta_pred = relative_motions(pred_c.T_world_cam)
     return {
         "frame_id": gt_c.frame_ids[1:],
-        "translation_error_m": translation_error_m(error),
-        "rotation_error_deg": np.degrees(rotation_error_rad(error)),
+        "translation_error_m": np.linalg.norm(delta_gt[:, :3, 3] - delta_pred[:, :3, 3], axis=-1),
+        "rotation_error_deg": np.degrees(rotation_angle_between_rad(delta_pred[:, :3, :3], delta_gt[:, :3, :3])),
     }
 
 

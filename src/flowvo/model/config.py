@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
@@ -9,10 +10,23 @@ import yaml
 
 from flowvo.atomic import write_text_atomic
 from flowvo.errors import FlowvoError
+from flowvo.flow.cache_root import default_cache_root
+from flowvo.kitti.sequence import sequence_name
 
 SPLITS = {
     "kitti": (["00", "01", "02", "03", "04", "05", "06", "07"], ["08", "09", "10"]),
 }
+
+
+def check_number(name: str, value: object, kind: type, low: float, high: float = math.inf) -> int | float:
+    """``value`` as ``kind`` (int or float) if it is a finite number in [low, high]; else a FlowvoError
+    naming the option (YAML ``epochs: ten`` or ``lr: .nan`` are refused, not trained with)."""
+    integral = isinstance(value, (int, float)) and float(value).is_integer()
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or (kind is int and not integral):
+        raise FlowvoError(f"{name} must be {'an integer' if kind is int else 'a number'}, got {value!r}")
+    if not (math.isfinite(value) and low <= value <= high):
+        raise FlowvoError(f"{name} must be in [{low:g}, {high:g}], got {value!r}")
+    return kind(value)
 
 
 @dataclass
@@ -27,11 +41,20 @@ class ModelConfig:
     dropout: float = 0.5
 
     def __post_init__(self) -> None:
-        self.input_hw = tuple(int(v) for v in self.input_hw)
+        self.validate()
+
+    def validate(self) -> None:
+        """Raise a FlowvoError naming the first option out of range (also after fields were changed)."""
+        if not isinstance(self.input_hw, (list, tuple)) or len(self.input_hw) != 2:
+            raise FlowvoError(f"model input_hw must be [height, width], got {self.input_hw!r}")
+        self.input_hw = (check_number("model input_hw", self.input_hw[0], int, 8, 4096),
+                         check_number("model input_hw", self.input_hw[1], int, 8, 4096))
         if self.head not in ("planar", "se3"):
             raise FlowvoError(f"model head must be 'planar' or 'se3', got {self.head!r}")
-        if self.stack < 1 or self.width <= 0:
-            raise FlowvoError("model stack must be >= 1 and width > 0")
+        check_number("model stack", self.stack, int, 1, 16)
+        check_number("model width", self.width, float, 0.01, 4.0)
+        check_number("model fc_units", self.fc_units, int, 1, 16384)
+        check_number("model dropout", self.dropout, float, 0.0, 0.99)
 
     @property
     def outputs(self) -> int:
@@ -62,9 +85,39 @@ class TrainConfig:
     device: str = "cpu"
     workers: int = 0
 
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Raise a FlowvoError naming the first option out of range (also after fields were changed)."""
+        self.model.validate()
+        for name in ("epochs", "batch_size", "early_stopping_patience"):
+            setattr(self, name, check_number(name, getattr(self, name), int, 1))
+        for name in ("seed", "workers"):
+            setattr(self, name, check_number(name, getattr(self, name), int, 0))
+        self.learning_rate = check_number("learning_rate", self.learning_rate, float, 1e-12, 10.0)
+        self.weight_decay = check_number("weight_decay", self.weight_decay, float, 0.0, 10.0)
+        self.flow_scale = check_number("flow_scale", self.flow_scale, float, 1e-3, 4.0)
+        if self.schedule not in ("cosine", "constant"):
+            raise FlowvoError(f"schedule must be 'cosine' or 'constant', got {self.schedule!r}")
+        for name in ("train_sequences", "val_sequences"):
+            names = getattr(self, name)
+            if not isinstance(names, list) or not names or not all(isinstance(n, (str, int)) for n in names):
+                raise FlowvoError(f"{name} must be a non-empty list of sequence names, got {names!r}")
+            setattr(self, name, [sequence_name(str(n)) for n in names])
+        if self.loss_weights is not None:
+            if not isinstance(self.loss_weights, list) or len(self.loss_weights) != self.model.outputs:
+                raise FlowvoError(f"loss_weights must list {self.model.outputs} numbers (one per output of the "
+                                  f"{self.model.head} head), got {self.loss_weights!r}")
+            self.loss_weights = [check_number("loss_weights", w, float, 0.0) for w in self.loss_weights]
+        for name in ("data", "out", "device", "flow_method"):
+            if not isinstance(getattr(self, name), str):
+                raise FlowvoError(f"{name} must be text, got {getattr(self, name)!r}")
+
     @property
     def cache_root(self) -> str:
-        return self.flow_cache or f"{self.data}/flow_cache"
+        """``flow_cache``, or the dataset's folder in the user's cache (:mod:`flowvo.flow.cache_root`)."""
+        return self.flow_cache or str(default_cache_root(self.data))
 
     def to_dict(self) -> dict:
         data = asdict(self)
@@ -81,10 +134,15 @@ class TrainConfig:
         if "split" in values:
             values.pop("split")
         model = values.pop("model", {}) or {}
+        if not isinstance(model, dict):
+            raise FlowvoError(f"model must be a mapping of option: value, got {model!r}", source)
         model_known = {f.name for f in fields(ModelConfig)}
         if set(model) - model_known:
             raise FlowvoError(f"unknown model option(s): {', '.join(sorted(set(model) - model_known))}", source)
-        return cls(model=ModelConfig(**model), **values)
+        try:
+            return cls(model=ModelConfig(**model), **values)
+        except FlowvoError as error:  # name the file the bad value came from
+            raise FlowvoError(error.message, source if error.path is None else error.path) from None
 
     @classmethod
     def from_yaml(cls, path: str | Path) -> TrainConfig:
@@ -92,7 +150,9 @@ class TrainConfig:
         if not path.is_file():
             raise FlowvoError("config file not found", path)
         try:
-            data = yaml.safe_load(path.read_text()) or {}
+            data = yaml.safe_load(path.read_text(encoding="utf-8")) or {}
+        except UnicodeDecodeError:
+            raise FlowvoError("not valid YAML (not UTF-8 text)", path) from None
         except yaml.YAMLError as error:
             line = getattr(getattr(error, "problem_mark", None), "line", None)
             raise FlowvoError("not valid YAML", path, None if line is None else line + 1) from None
@@ -102,3 +162,22 @@ class TrainConfig:
 
     def save_yaml(self, path: str | Path) -> None:
         write_text_atomic(path, yaml.safe_dump(self.to_dict(), sort_keys=False))
+
+
+# Settings that shape a training run: a resumed run must keep them, or the log and checkpoints would
+# describe a run that never happened. ``epochs`` joins them under the cosine schedule, whose length the
+# saved scheduler state already encodes; paths, device, workers and patience may change.
+RESUME_FIXED = ("train_sequences", "val_sequences", "flow_method", "flow_scale", "mirror", "batch_size",
+                "learning_rate", "weight_decay", "schedule", "loss_weights", "seed")
+
+
+def check_resume_config(stored: dict, config: TrainConfig, path: str | Path) -> None:
+    """Refuse to resume the run recorded as ``stored`` (a checkpoint's train_config) with ``config``
+    when a setting that shapes the result differs; the message names each difference."""
+    current = config.to_dict()
+    keys = RESUME_FIXED + (("epochs",) if config.schedule == "cosine" else ())
+    differences = [f"{key}={current[key]!r} (the run has {stored.get(key)!r})" for key in keys
+                   if stored.get(key) != current[key]]
+    if differences:
+        raise FlowvoError("cannot resume with other settings: " + ", ".join(differences) + "; resume with the "
+                          "run's settings, or start a new run (another --out, or --force)", path)

@@ -99,7 +99,8 @@ class Normalization:
 
     @classmethod
     def from_dict(cls, data: dict) -> Normalization:
-        return cls(tuple(data["target_mean"]), tuple(data["target_std"]), float(data["flow_std_px"]))
+        return cls(tuple(float(v) for v in data["target_mean"]), tuple(float(v) for v in data["target_std"]),
+                   float(data["flow_std_px"]))
 
 
 def stacked_input(flows: torch.Tensor, pair: int, stack: int) -> torch.Tensor:

@@ -25,14 +25,18 @@ from flowvo.flow.cache import FlowCache
 from flowvo.flow.registry import create_estimator
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.metrics import kitti_odometry as kitti
-from flowvo.model.checkpoint import check_compatible, read_checkpoint, save_checkpoint
-from flowvo.model.config import TrainConfig
+from flowvo.model.checkpoint import check_compatible, read_resumable_checkpoint, save_checkpoint
+from flowvo.model.config import TrainConfig, check_resume_config
 from flowvo.model.data import Normalization, OdometryDataset, load_network_flows, motion_targets
+from flowvo.model.device import check_device
 from flowvo.model.inference import chain_motions, predict_targets
 from flowvo.model.network import OdometryNet
+from flowvo.outputs import prepare_output_dir
 from flowvo.progress import progress
 from flowvo.trajectory import Trajectory
 
+TRAIN_OUTPUTS = ["last.pt", "best.pt", "log.csv", "config.yaml", "learning_curve.png"]
+MIN_TRAVEL_M = 1.0  # in all training sequences together
 LOG_FIELDS = ["epoch", "train_loss", "val_loss", "val_t_err_percent", "val_r_err_deg_per_m", "lr", "seconds"]
 
 
@@ -47,8 +51,7 @@ def load_split(config: TrainConfig, names: list[str], flows_needed: bool = True
         if not sequence.has_poses:
             raise FlowvoError("training and validation need ground-truth poses", sequence.pose_path)
         cache = FlowCache(config.cache_root, sequence, config.flow_method, config.flow_scale, estimator.params())
-        if not cache.complete:
-            cache.compute(estimator)
+        cache.compute(estimator)  # fills missing chunks, recomputes damaged ones (checksums), else no-op
         if flows_needed:
             flows.append(load_network_flows(cache, config.model.input_hw, name))
         targets.append(motion_targets(sequence.poses.T_world_cam, config.model.head))
@@ -90,27 +93,47 @@ def _selection_score(row: dict) -> float:
     return row["val_t_err_percent"] if not math.isnan(row["val_t_err_percent"]) else row["val_loss"]
 
 
-def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | None = None) -> Path:
+def _check_targets_move(targets: list[np.ndarray], names: list[str], config: TrainConfig) -> None:
+    """Refuse training data whose camera never moves: every target would be its mean, the normalisation
+    would divide by ~0 and the 'trained' model would be meaningless."""
+    stacked = np.concatenate(targets)
+    travelled_m = float(np.abs(stacked[:, 0] if config.model.head == "planar" else stacked[:, :3]).sum())
+    if travelled_m < MIN_TRAVEL_M:
+        raise FlowvoError(f"the camera of the training sequence(s) {' '.join(names)} moves {travelled_m:.3g} m in all: "
+                          "nothing to learn from; train on sequences that drive", config.data)
+
+
+def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | None = None,
+          force: bool = False) -> Path:
     """Train and return the folder holding ``best.pt``, ``last.pt``, ``log.csv`` and ``config.yaml``.
 
+    A folder holding an earlier run is refused unless ``resume`` (continue it: every setting that shapes
+    the result must be unchanged) or ``force`` (start over: its outputs are removed first).
     ``stop_after_epochs`` ends the run early (as if killed) after that many epochs of this call.
     """
+    config.validate()
+    check_device(config.device)
+    if resume and force:
+        raise FlowvoError("--resume continues the run in --out, --force replaces it: give one of them")
     rank, world = _distributed()
     out = Path(config.out)
     torch.manual_seed(config.seed)
     np.random.seed(config.seed)
     state = None
+    prepare_output_dir(out, [] if resume or rank else TRAIN_OUTPUTS, force, dataset=config.data)
     if resume:
         if not (out / "last.pt").is_file():
             raise FlowvoError("nothing to resume: no last.pt", out)
-        state = read_checkpoint(out / "last.pt")
+        state = read_resumable_checkpoint(out / "last.pt")
         check_compatible(state, config.model, out / "last.pt")
+        check_resume_config(state["train_config"], config, out / "last.pt")
     if world > 1:  # one process fills missing flow caches, the others wait and then read them
         torch.set_num_threads(max(1, (os.cpu_count() or 1) // world))
         if rank == 0:
             load_split(config, config.train_sequences + config.val_sequences, flows_needed=False)
         dist.barrier()
     train_flows, train_targets, _, flow_sizes = load_split(config, config.train_sequences)
+    _check_targets_move(train_targets, config.train_sequences, config)
     val_flows, _, val_poses, _ = load_split(config, config.val_sequences)
     normalization = (Normalization.from_dict(state["normalization"]) if state else
                      Normalization.fit(train_targets, train_flows, config.model.head, config.mirror))
@@ -156,6 +179,9 @@ def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | No
             scheduler.step()
             total += loss.item() * len(inputs)
             count += len(inputs)
+            if not math.isfinite(total):
+                raise FlowvoError(f"training diverged: loss {loss.item()} in epoch {epoch + 1}; lower --lr "
+                                  "(the last completed epoch is kept in last.pt)", out)
         model.eval()
         row = {"epoch": epoch + 1, "train_loss": total / max(count, 1),
                **_validation_metrics(model, normalization, val_flows, val_poses, config),

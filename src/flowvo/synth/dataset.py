@@ -2,14 +2,19 @@
 
 from __future__ import annotations
 
+import json
+import shutil
 from pathlib import Path
 
 from flowvo.errors import FlowvoError
 from flowvo.kitti.poses import read_kitti_poses
+from flowvo.kitti.sequence import sequence_name
 from flowvo.synth.camera_path import PathConfig, generate_path
-from flowvo.synth.sequence_writer import SynthSpec, write_sequence
+from flowvo.synth.sequence_writer import SynthSpec, intrinsics, spec_digest, write_sequence
 
 DEFAULT_FRAMES = 400
+MAX_SCALE = 4.0  # 4964 x 1504 frames; beyond that a render needs more memory than a laptop has
+MIN_IMAGE_PX = 16
 
 
 def sequence_seed(seed: int, name: str) -> int:
@@ -21,6 +26,11 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
                   scale: float, scene: str | None, gt_flow: bool, max_speed_mps: float = 25.0) -> SynthSpec:
     """The spec of one sequence: a replay of ``trajectory`` (a pose file, or a folder of NN.txt) or a
     generated drive of ``frames`` frames."""
+    _check_scale(scale)
+    if frames is not None and frames < 2:
+        raise FlowvoError(f"--frames {frames}: a sequence needs at least 2 frames")
+    if seed < 0 or not 0 < max_speed_mps <= 100:
+        raise FlowvoError(f"--seed {seed} must be >= 0 and --max-speed {max_speed_mps:g} in (0, 100] m/s")
     world_seed = sequence_seed(seed, name)
     if trajectory is not None:
         path = Path(trajectory)
@@ -29,20 +39,80 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
         poses = read_kitti_poses(path)
         if not poses.is_complete:
             raise FlowvoError("a replayed trajectory needs every frame (12 numbers per line)", path)
-        T = poses.T_world_cam[:frames] if frames else poses.T_world_cam
+        T = poses.T_world_cam if frames is None else poses.T_world_cam[:frames]
+        if len(T) < 2:
+            raise FlowvoError(f"holds {len(T)} pose; a replayed sequence needs at least 2 frames", path)
     else:
-        T = generate_path(frames or DEFAULT_FRAMES, world_seed, PathConfig(max_speed_mps=max_speed_mps))
-    if len(T) < 2:
-        raise FlowvoError("a sequence needs at least 2 frames")
+        T = generate_path(DEFAULT_FRAMES if frames is None else frames, world_seed,
+                          PathConfig(max_speed_mps=max_speed_mps))
     return SynthSpec(T, world_seed, scale, scene, gt_flow)
+
+
+def _check_scale(scale: float) -> None:
+    if not 0 < scale <= MAX_SCALE:
+        raise FlowvoError(f"--scale {scale:g}: use a scale in (0, {MAX_SCALE:g}] (1.0 = KITTI's 1241x376)")
+    _, (height, width) = intrinsics(scale)
+    if min(height, width) < MIN_IMAGE_PX:
+        raise FlowvoError(f"--scale {scale:g} gives {width}x{height} images; need at least {MIN_IMAGE_PX} pixels "
+                          "a side")
+
+
+def _existing_digest(root: Path, name: str) -> str | None:
+    """The spec digest recorded by an earlier ``flowvo synth`` of this sequence, or None."""
+    try:
+        return json.loads((root / "sequences" / name / "synthetic.json").read_text()).get("spec_sha256")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
+def _clear_sequence(root: Path, name: str) -> None:
+    """Remove an earlier synthetic sequence (frames, calib, times, GT flow) and its pose file (--force)."""
+    directory = root / "sequences" / name
+    if directory.exists():
+        shutil.rmtree(directory)
+    (root / "poses" / f"{name}.txt").unlink(missing_ok=True)
+
+
+def check_target(root: Path, specs: dict[str, SynthSpec], force: bool) -> list[str]:
+    """Refuse to mix a new rendering with what ``root`` holds; returns the sequences to clear first.
+
+    Without ``force``: ``root`` must be absent or empty, or be resuming this same command (every
+    sequence's synthetic.json records the same spec digest; frames on disk are then reused). With
+    ``force``: every sequence whose recorded spec differs is replaced whole; other content is kept.
+    """
+    if root.exists() and not root.is_dir():
+        raise FlowvoError("--out is a file, expected a folder", root)
+    resuming = {name for name, spec in specs.items() if _existing_digest(root, name) == spec_digest(spec)}
+    stale = [name for name in specs if name not in resuming]
+    occupied = root.is_dir() and any(root.iterdir())
+    if occupied and stale and not force:
+        raise FlowvoError("is not empty; synth refuses to mix a new rendering with existing files (old frames "
+                          "beside new poses): use an empty folder, or --force to replace sequence(s) "
+                          f"{' '.join(stale)} (other content is kept)", root)
+    for name in stale:
+        directory = root / "sequences" / name
+        if directory.is_dir() and not (directory / "synthetic.json").is_file() and any(directory.iterdir()):
+            raise FlowvoError("holds a sequence not written by flowvo synth (no synthetic.json); not replacing it "
+                              "even with --force: choose another --out or sequence name", directory)
+    return stale if occupied else []
 
 
 def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | None = None,
                trajectory: str | Path | None = None, scale: float = 1.0, scene: str | None = None,
-               gt_flow: bool = False, workers: int | None = None, max_speed_mps: float = 25.0) -> list[Path]:
-    """Write every named sequence under ``root`` in the KITTI layout; returns their folders."""
-    return [
-        write_sequence(root, name, plan_sequence(name, seed, frames, trajectory, scale, scene, gt_flow, max_speed_mps),
-                       workers)
-        for name in names
-    ]
+               gt_flow: bool = False, workers: int | None = None, max_speed_mps: float = 25.0,
+               force: bool = False) -> list[Path]:
+    """Write every named sequence under ``root`` in the KITTI layout; returns their folders.
+
+    Every plan is made (and every input read) before anything is written; see :func:`check_target` for
+    when an existing ``root`` is refused, resumed or (``force``) partly replaced.
+    """
+    root = Path(root)
+    canonical = [sequence_name(name) for name in names]
+    repeated = sorted({name for name in canonical if canonical.count(name) > 1})
+    if repeated:
+        raise FlowvoError(f"sequence {' '.join(repeated)} given more than once")
+    specs = {name: plan_sequence(name, seed, frames, trajectory, scale, scene, gt_flow, max_speed_mps)
+             for name in canonical}
+    for name in check_target(root, specs, force):
+        _clear_sequence(root, name)
+    return [write_sequence(root, name, spec, workers) for name, spec in specs.items()]

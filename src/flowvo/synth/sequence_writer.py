@@ -5,8 +5,10 @@ Every file is written atomically; frames already on disk are kept, so an interru
 
 from __future__ import annotations
 
+import hashlib
 import multiprocessing
 import os
+import signal
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,6 +44,14 @@ class SynthSpec:
     gt_flow: bool = False
 
 
+def spec_digest(spec: SynthSpec) -> str:
+    """SHA-256 of everything that determines the rendered files (poses, seed, scale, scene, GT flow): two
+    runs with equal digests write identical sequences, so frames on disk may be reused (resume)."""
+    digest = hashlib.sha256(np.ascontiguousarray(spec.T_world_cam, dtype=np.float64).tobytes())
+    digest.update(repr((spec.seed, float(spec.scale), spec.scene, spec.gt_flow)).encode())
+    return digest.hexdigest()
+
+
 def intrinsics(scale: float) -> tuple[np.ndarray, tuple[int, int]]:
     """KITTI's intrinsics K (3, 3) and image size (H, W), scaled."""
     K = np.array([[KITTI_FOCAL_PX, 0, KITTI_PRINCIPAL_PX[0]], [0, KITTI_FOCAL_PX, KITTI_PRINCIPAL_PX[1]], [0, 0, 1]])
@@ -70,8 +80,15 @@ def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return render(state["world"], state["textures"], pose, state["K"], state["size"])
 
 
+def _init_pool_worker(world: World, seed: int, K: np.ndarray, size_hw: tuple[int, int]) -> None:
+    """A render process: Ctrl-C is left to the parent, which stops the pool and reports one line."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _init_worker(world, seed, K, size_hw)
+
+
 def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | None = None) -> Path:
-    """Render one sequence into ``root`` and return its folder. Existing frames are reused."""
+    """Render one sequence into ``root`` and return its folder. Existing frames are reused: the caller
+    (:func:`flowvo.synth.dataset.synthesize`) makes sure they belong to the same ``spec``."""
     root = Path(root)
     directory = root / "sequences" / name
     image_dir = directory / "image_0"
@@ -82,7 +99,7 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
     write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(spec.T_world_cam))
     write_json_atomic(directory / "synthetic.json", {
         "synthetic": True, "seed": spec.seed, "scene": spec.scene or "varied", "scale": spec.scale,
-        "frames": len(spec.T_world_cam), "generator": "flowvo synth",
+        "frames": len(spec.T_world_cam), "generator": "flowvo synth", "spec_sha256": spec_digest(spec),
     })
     world = build_world(spec.T_world_cam, spec.seed, spec.scene)
     todo = [i for i in range(len(spec.T_world_cam)) if not (image_dir / f"{i:06d}.png").exists()]
@@ -94,7 +111,7 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
         if workers > 1 and len(frames) > 4:
             # spawn, not fork: a forked child inherits OpenCV's thread pool in a locked state and hangs
             context = multiprocessing.get_context("spawn")
-            pool = stack.enter_context(context.Pool(workers, _init_worker, (world, spec.seed, K, size)))
+            pool = stack.enter_context(context.Pool(workers, _init_pool_worker, (world, spec.seed, K, size)))
             results = pool.imap(_render_one, frames, chunksize=2)
         else:
             _init_worker(world, spec.seed, K, size)

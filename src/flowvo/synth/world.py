@@ -85,9 +85,14 @@ def _resample_path(positions: np.ndarray, spacing_m: float) -> tuple[np.ndarray,
     arclength = np.concatenate([[0.0], np.cumsum(steps)])
     keep = np.concatenate([[True], steps > 1e-6])
     arclength, positions = arclength[keep], positions[keep]
-    if len(arclength) < 2:  # a parked camera: extend a short stub forward so the road has a direction
-        positions = np.stack([positions[0], positions[0] + [0.0, 0.0, 1.0]])
-        arclength = np.array([0.0, 1.0])
+    if arclength[-1] < spacing_m:  # parked, or barely moving (2 frames from a standstill): extend a 1 m
+        # stub forward, along the motion if any, so the road has a direction and at least two samples
+        heading = positions[-1] - positions[0]
+        heading[1] = 0.0
+        norm = np.linalg.norm(heading)
+        heading = heading / norm if norm > 1e-6 else np.array([0.0, 0.0, 1.0])
+        positions = np.stack([positions[0], positions[0] + max(spacing_m, 1.0) * heading])
+        arclength = np.array([0.0, max(spacing_m, 1.0)])
     samples = np.arange(0.0, arclength[-1] + 1e-9, spacing_m)
     resampled = np.stack([np.interp(samples, arclength, positions[:, k]) for k in range(3)], 1)
     return samples, resampled
