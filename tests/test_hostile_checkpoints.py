@@ -68,7 +68,8 @@ TAMPERING = {
 def test_run_refuses_a_tampered_checkpoint(data, trained, tmp_path, capsys, tampering):
     change, message = TAMPERING[tampering]
     model = tampered(trained / "best.pt", tmp_path / "model.pt", change)
-    refused(capsys, "run", "--data", data, "--sequence", "01", "--model", model, "--out", tmp_path / "out",
+    refused(capsys, "run", "--data", data, "--sequence", "01", "--method", "cnn", "--model", model,
+            "--out", tmp_path / "out",
             says=(str(model), message))
     assert not (tmp_path / "out" / "01.txt").exists()
 
@@ -86,7 +87,8 @@ def test_run_and_export_refuse_a_foreign_checkpoint(data, trained, tmp_path, cap
     make, message = FOREIGN[kind]
     model = tmp_path / "model.pt"
     make(model, trained / "best.pt")
-    refused(capsys, "run", "--data", data, "--sequence", "01", "--model", model, "--out", tmp_path / "o",
+    refused(capsys, "run", "--data", data, "--sequence", "01", "--method", "cnn", "--model", model,
+            "--out", tmp_path / "o",
             says=message)
     refused(capsys, "export", "--model", model, "--out", tmp_path / "m.ts", says=message)
     assert not (tmp_path / "m.ts").exists()

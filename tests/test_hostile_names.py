@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 from hostile import cli, refused, tree_digest
 
-from flowvo.demo import packaged_model_path
 from flowvo.kitti.sequence import KittiSequence
+from flowvo.model.checkpoint import packaged_model_path
 from flowvo.synth.dataset import synthesize
 
 PATH_NAMES = ["D/sequences/00", "../00", "..", ".", "", "00/..", "/tmp/00", "-00", ".hidden", "a b", "00\\x",

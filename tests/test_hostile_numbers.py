@@ -25,8 +25,8 @@ OUT_OF_RANGE = [  # (sub-command and required arguments, option, bad values)
     ("synth --out {tmp}/s", "--max-speed", ["0", "-5", "1e9"]),
     ("flow --data {data} --sequence 00", "--scale", ["0", "-0.5", "3", "nan"]),
     ("flow --data {data} --sequence 00 --visualize {tmp}/v", "--every", ["0", "-1"]),
-    ("run --data {data} --sequence 00 --out {tmp}/r", "--median", ["0", "-3"]),
-    ("run --data {data} --sequence 00 --out {tmp}/r", "--flow-scale", ["0", "-1"]),
+    ("run --data {data} --sequence 00 --out {tmp}/r", "--max-frames", ["0", "1", "-3"]),
+    ("run --data {data} --sequence 00 --out {tmp}/r", "--fx", ["x"]),
     ("train --data {data}", "--epochs", ["0", "-1"]),
     ("train --data {data}", "--batch-size", ["0"]),
     ("train --data {data}", "--lr", ["0", "-1e-3", "nan", "inf"]),
@@ -77,8 +77,7 @@ def test_flow_too_small_for_opencv_is_refused_not_a_crash(data, tmp_path, capsys
 
 
 @pytest.mark.skipif(torch.cuda.is_available(), reason="this machine has a GPU")
-@pytest.mark.parametrize("command", ["run --data {data} --sequence 00 --out {tmp}/r --method classical",
-                                     "train --data {data} --train 00 --val 00 --out {tmp}/t"])
+@pytest.mark.parametrize("command", ["train --data {data} --train 00 --val 00 --out {tmp}/t"])
 def test_cuda_without_a_gpu_is_one_clear_line(data, tmp_path, capsys, command):
     args = [a.format(tmp=tmp_path, data=data) for a in command.split()]
     refused(capsys, *args, "--device", "cuda", says=("--device cuda", "no CUDA GPU", "--device cpu"))
@@ -86,7 +85,8 @@ def test_cuda_without_a_gpu_is_one_clear_line(data, tmp_path, capsys, command):
 
 @pytest.mark.parametrize("device", ["gpu", "cuda:x", "mps"])
 def test_an_unknown_device_is_refused(data, tmp_path, capsys, device):
-    refused(capsys, "run", "--data", data, "--sequence", "00", "--out", tmp_path / "r", "--device", device,
+    refused(capsys, "train", "--data", data, "--train", "00", "--val", "00", "--out", tmp_path / "t",
+            "--device", device,
             says=("--device", device))
 
 

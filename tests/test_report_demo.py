@@ -4,7 +4,7 @@ import re
 import pytest
 
 from flowvo.cli import main
-from flowvo.demo import packaged_model_path
+from flowvo.model.checkpoint import packaged_model_path
 from flowvo.synth.dataset import synthesize
 
 
@@ -52,16 +52,18 @@ def test_classical_baseline_with_gt_scale_tracks_the_synthetic_drive(classical_r
     assert summary["synthetic"] is True
     assert summary["metrics"]["t_err_percent"] < 10.0  # measured ~2 % on such drives
     timing = json.loads((runs[0] / "timing.json").read_text())
-    assert set(timing["seconds_per_frame"]) == {"image_read", "flow", "network", "chaining", "total"}
+    assert set(timing["seconds_per_frame"]) == {"image_read", "flow", "network", "geometry", "chaining", "total"}
 
 
 def test_bench_prints_the_timing_table(classical_runs, capsys):
     root, _ = classical_runs
     assert main(["bench", "--data", str(root), "--sequence", "00", "--frames", "12", "--repeat", "2"]) == 0
-    table = capsys.readouterr().out
-    assert "flowvo (dis-medium + CNN)" in table and "classical VO" in table and "0.633" in table
-    classical = next(line for line in table.splitlines() if line.startswith("classical VO"))
-    assert classical[40:].split()[2] == "-"  # read, flow, then no network stage
+    table = capsys.readouterr().out.splitlines()
+    assert table[2].startswith("flowvo (") and "0.633" in table[-2]  # the default method first
+    assert table[3].startswith("CNN (") and table[4].startswith("classical VO")
+    stage_cells = {row.split()[0]: row[53:].split()[:5] for row in table[2:5]}  # read flow network geometry chain
+    assert stage_cells["flowvo"][2] == "-" and stage_cells["CNN"][3] == "-"  # no network / no geometry stage
+    assert stage_cells["classical"][2:4] == ["-", "-"]
 
 
 def test_report_refuses_a_folder_that_is_not_a_run(tmp_path, capsys):
@@ -76,12 +78,14 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "report:" in printed and "synthetic" in printed
     page = (tmp_path / "report" / "index.html").read_text()
-    assert "flowvo (dis-medium + CNN)" in page and "classical VO" in page
+    assert "flowvo (dis-medium-fine flow" in page and "CNN (dis-medium flow + network)" in page
+    assert "classical VO" in page
+    assert re.search(r"flowvo \(dis-medium-fine[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary
     seconds = r"\d+\.\d{4}"
 
     def network_cell(method: str) -> str:  # the timing table's network column for the method's row
         found = re.search(rf"<tr><td>{method}[^<]*</td><td>\d+</td>(?:<td>{seconds}</td>){{2}}<td>([^<]*)</td>", page)
         return found.group(1) if found else "row not found"
 
-    assert re.fullmatch(seconds, network_cell("flowvo"))
-    assert network_cell("classical VO") == "-"  # it has no network stage
+    assert re.fullmatch(seconds, network_cell("CNN"))
+    assert network_cell("flowvo") == "-" and network_cell("classical VO") == "-"  # they have no network stage

@@ -59,8 +59,8 @@ def test_train_and_run_from_the_cli(tiny_data, tmp_path, capsys):
     config.save_yaml(tmp_path / "c.yaml")
     assert main(["train", "--config", str(tmp_path / "c.yaml"), "-q"]) == 0
     assert "M parameters" in capsys.readouterr().out
-    assert main(["run", "--data", str(tiny_data), "--sequence", "02", "--model", str(tmp_path / "run/best.pt"),
-                 "--out", str(tmp_path / "out"), "--median", "3", "-q"]) == 0
+    assert main(["run", "--data", str(tiny_data), "--sequence", "02", "--method", "cnn",
+                 "--model", str(tmp_path / "run/best.pt"), "--out", str(tmp_path / "out"), "-q"]) == 0
     printed = capsys.readouterr().out
     assert "(synthetic)" in printed
     poses = np.loadtxt(tmp_path / "out" / "02.txt")
@@ -72,8 +72,8 @@ def test_train_and_run_from_the_cli(tiny_data, tmp_path, capsys):
     assert main(["export", "--model", str(tmp_path / "run/best.pt"), "--out", str(tmp_path / "slim.pt"),
                  "--format", "slim"]) == 0
     assert (tmp_path / "slim.pt").stat().st_size < (tmp_path / "run/best.pt").stat().st_size / 2
-    assert main(["run", "--data", str(tiny_data), "--sequence", "02", "--model", str(tmp_path / "slim.pt"),
-                 "--out", str(tmp_path / "out_slim"), "--median", "3", "-q"]) == 0
+    assert main(["run", "--data", str(tiny_data), "--sequence", "02", "--method", "cnn",
+                 "--model", str(tmp_path / "slim.pt"), "--out", str(tmp_path / "out_slim"), "-q"]) == 0
     full, slim = np.loadtxt(tmp_path / "out" / "02.txt"), np.loadtxt(tmp_path / "out_slim" / "02.txt")
     assert np.abs(full - slim).max() < 0.5  # float16 weights, same trajectory to within rounding drift
 

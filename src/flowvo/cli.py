@@ -341,9 +341,13 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from flowvo.demo import demo
+    from flowvo.demo import demo, summary_lines
 
-    report = demo(args.out, args.data, args.sequence, args.model, args.frames, args.force)
+    report, runs = demo(args.out, args.data, args.sequence, args.model, args.frames, args.force)
+    kind = "synthetic held-out drive" if args.data is None else f"sequence {args.sequence} of {args.data}"
+    print(f"flowvo demo on the {kind}:")
+    for line in summary_lines(runs):
+        print(f"  {line}")
     print(f"report: {report}")
     if args.data is None:
         print("(synthetic data: a held-out world and drive rendered by flowvo synth, not real KITTI)")
@@ -354,7 +358,7 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="one command: synthetic drive (or --data), packaged model, baseline, report")
     p.add_argument("--data", help="KITTI root (default: render a synthetic held-out drive)")
     p.add_argument("--sequence", help="sequence of --data")
-    p.add_argument("--model", help="checkpoint (default: the packaged model)")
+    p.add_argument("--model", help="checkpoint of the CNN method (default: the packaged model)")
     p.add_argument("--frames", type=FRAME_COUNT, default=900, help="frames of the synthetic drive")
     p.add_argument("--out", default="runs/demo", help="output folder")
     _force_flag(p, "the runs and report of an earlier demo in --out")

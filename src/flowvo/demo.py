@@ -1,5 +1,5 @@
-"""``flowvo demo``: render a held-out synthetic drive (or take the user's KITTI sequence), run the packaged
-model and the classical baseline on it, evaluate both and write the report."""
+"""``flowvo demo``: render a held-out synthetic drive (or take the user's KITTI sequence), run the default
+method, the thesis CNN and the classical baseline on it, evaluate them and write the report."""
 
 from __future__ import annotations
 
@@ -7,7 +7,6 @@ from pathlib import Path
 
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
-from flowvo.model.checkpoint import packaged_model_path
 from flowvo.pipeline import RunOptions, run
 from flowvo.report import write_report
 from flowvo.synth.dataset import synthesize
@@ -19,9 +18,11 @@ DEMO_MAX_SPEED_MPS = 15.0  # an urban drive, like the KITTI trajectories the pac
 
 
 def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence: str | None = None,
-         model: str | Path | None = None, frames: int = DEMO_FRAMES, force: bool = False) -> Path:
-    """Run the whole product once and return the report's index.html; ``force`` replaces the runs and the
-    report of an earlier demo in ``out`` (the rendered drive is reused when it is the same)."""
+         model: str | Path | None = None, frames: int = DEMO_FRAMES, force: bool = False
+         ) -> tuple[Path, list[dict]]:
+    """Run the whole product once; returns the report's index.html and the run summaries (default method
+    first). ``force`` replaces the runs and the report of an earlier demo in ``out`` (the rendered drive
+    is reused when it is the same)."""
     out = Path(out)
     if data is None:
         data, sequence = out / "data", "00"
@@ -29,13 +30,29 @@ def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence
                    force=force)
     elif sequence is None:
         raise FlowvoError("with --data, also give --sequence NN")
-    model = Path(model) if model else packaged_model_path()
-    runs = [run(RunOptions(data=str(data), sequence=sequence, out=str(out / "learned"), model=str(model),
-                           flow_cache=str(out / "flow_cache"), force=force))]
     has_gt = KittiSequence(data, sequence).has_poses
-    scale_sources = ("gt", "height") if has_gt else ("height",)
-    for source in scale_sources:
-        runs.append(run(RunOptions(data=str(data), sequence=sequence, out=str(out / f"classical_{source}"),
-                                   method="classical", classical_scale=source, force=force)))
-    folders = [out / "learned"] + [out / f"classical_{s}" for s in scale_sources]
-    return write_report(folders, out / "report", force)
+    methods = [("flowvo", {}), ("cnn", {"model": str(model) if model else None}), ("classical", {})]
+    if has_gt:
+        methods.append(("classical", {"classical_scale": "gt"}))
+    runs, folders = [], []
+    for method, extra in methods:
+        folder = out / (method if extra.get("classical_scale") != "gt" else "classical_gt_scale")
+        runs.append(run(RunOptions(out=str(folder), data=str(data), sequence=sequence, method=method, force=force,
+                                   **extra)))
+        folders.append(folder)
+    return write_report(folders, out / "report", force), runs
+
+
+def summary_lines(runs: list[dict]) -> list[str]:
+    """One terminal line per run: method, t_err, r_err (or ATE for short drives), frames per second."""
+    lines = []
+    for summary in runs:
+        metrics = summary.get("metrics") or {}
+        if metrics.get("t_err_percent") is not None:
+            accuracy = f"t_err {metrics['t_err_percent']:5.2f} %  r_err {metrics['r_err_deg_per_m']:.4f} deg/m"
+        elif metrics:
+            accuracy = f"ATE {metrics['ate_rmse_m']:.2f} m (path under 100 m: no KITTI t_err)"
+        else:
+            accuracy = "no ground truth"
+        lines.append(f"{summary['label'][:56]:56s} {accuracy}  {summary['frames_per_second']:6.1f} frames/s")
+    return lines

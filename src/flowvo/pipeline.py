@@ -8,7 +8,9 @@ with ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -134,11 +136,12 @@ def run(options: RunOptions) -> dict:
         "label": options.label or step.label,
         "method": options.method,
         "sequence": source.name,
-        "source": {"data": options.data, "video": options.video, "bag": options.bag, "topic": options.topic},
+        "data": str(Path(options.data).resolve()) if options.data else None,
+        "source": {"video": options.video, "bag": options.bag, "topic": options.topic},
         "synthetic": source.is_synthetic,
         "frames": result.frames,
         "poses": f"{source.name}.txt",
-        "intrinsics": vars(source.intrinsics) if hasattr(source.intrinsics, "__dict__") else None,
+        "intrinsics": dataclasses.asdict(source.intrinsics),
         "frames_per_second": timing["frames_per_second"],
     }
     if write_mcap:

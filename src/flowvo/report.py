@@ -18,6 +18,7 @@ from flowvo.evaluation import Evaluation, evaluate, pooled_summary
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.outputs import prepare_output_dir, validate_name
+from flowvo.stages import STAGES, stage_seconds_text
 
 REFERENCE_LABEL = "reference system (2016), published"
 REFERENCE_FIGURES = {  # sequence -> (t_err %, r_err deg/m), as published; 10 alone was not given
@@ -44,17 +45,18 @@ def load_run(folder: str | Path) -> RunRecord:
     """Read run.json, timing.json and the poses of a ``flowvo run`` output folder."""
     folder = Path(folder)
     summary = _read_record(folder / "run.json", RUN_KEYS)
-    if not all(isinstance(summary[key], str) for key in ("label", "sequence", "data", "poses")):
-        raise FlowvoError("label, sequence, data and poses must be text", folder / "run.json")
+    if not all(isinstance(summary[key], str) for key in ("label", "sequence", "poses")) \
+            or not isinstance(summary["data"], str | None):
+        raise FlowvoError("label, sequence and poses must be text, data text or null", folder / "run.json")
     timing = _read_record(folder / "timing.json", ("seconds_per_frame",))
     seconds = timing["seconds_per_frame"]
     if not isinstance(seconds, dict) or not all(_is_seconds(seconds.get(k)) for k in TIMING_STAGES) \
             or seconds["total"] <= 0:
         raise FlowvoError(f"seconds_per_frame must give {', '.join(TIMING_STAGES)} as seconds (total > 0)",
                           folder / "timing.json")
-    sequence = KittiSequence(summary["data"], summary["sequence"])
     evaluation = None
-    if sequence.has_poses:
+    sequence = KittiSequence(summary["data"], summary["sequence"]) if summary["data"] else None
+    if sequence is not None and sequence.has_poses:
         poses = folder / validate_name(summary["poses"], "run.json 'poses' file")
         evaluation = evaluate(sequence.poses, read_kitti_poses(poses))
     return RunRecord(folder, summary, timing, evaluation)
@@ -114,11 +116,6 @@ def _results_table(runs: list[RunRecord]) -> tuple[str, list[dict]]:
     return f"<table>{header}{''.join(rows)}</table>", records
 
 
-def stage_seconds_text(method: str, stage: str, seconds: float) -> str:
-    """Seconds per frame to 4 decimals, or "-" for a stage the method does not have (classical VO: network)."""
-    return "-" if (method, stage) == ("classical", "network") else f"{seconds:.4f}"
-
-
 def _timing_table(runs: list[RunRecord]) -> str:
     baseline_totals: dict[str, float] = {}  # per sequence: the first classical run given
     for run in runs:
@@ -129,16 +126,16 @@ def _timing_table(runs: list[RunRecord]) -> str:
         spf = run.timing["seconds_per_frame"]
         baseline_total = baseline_totals.get(run.summary["sequence"])
         versus_base = f"{baseline_total / spf['total']:.1f}x" if baseline_total and spf["total"] else "n/a"
-        rows.append(f"<tr><td>{html.escape(run.summary['label'])}</td><td>{run.summary['sequence']}</td>"
-                    f"<td>{spf['image_read']:.4f}</td><td>{spf['flow']:.4f}</td>"
-                    f"<td>{stage_seconds_text(run.summary.get('method', ''), 'network', spf['network'])}</td>"
+        method = run.summary.get("method", "")
+        stages = "".join(f"<td>{stage_seconds_text(method, stage, spf.get(stage))}</td>" for stage in STAGES)
+        rows.append(f"<tr><td>{html.escape(run.summary['label'])}</td><td>{run.summary['sequence']}</td>{stages}"
                     f"<td>{spf['total']:.4f}</td><td>{REFERENCE_SECONDS_PER_FRAME / spf['total']:.1f}x</td>"
                     f"<td>{versus_base}</td></tr>")
-    rows.append(f"<tr class='ref'><td>{REFERENCE_LABEL} (GPU)</td><td>08-10</td><td></td><td></td><td></td>"
+    blanks = "<td></td>" * len(STAGES)
+    rows.append(f"<tr class='ref'><td>{REFERENCE_LABEL} (GPU)</td><td>08-10</td>{blanks}"
                 f"<td>{REFERENCE_SECONDS_PER_FRAME:.3f}</td><td>1.0x</td><td></td></tr>")
-    header = ("<tr><th>method</th><th>sequence</th><th>image read [s/frame]</th><th>flow [s/frame]</th>"
-              "<th>network [s/frame]</th><th>total [s/frame]</th><th>speed-up vs reference</th>"
-              "<th>speed-up vs baseline</th></tr>")
+    header = ("<tr><th>method</th><th>sequence</th>" + "".join(f"<th>{stage} [s/frame]</th>" for stage in STAGES)
+              + "<th>total [s/frame]</th><th>speed-up vs reference</th><th>speed-up vs baseline</th></tr>")
     return f"<table>{header}{''.join(rows)}</table>"
 
 
@@ -201,9 +198,9 @@ def write_report(run_folders: list[str | Path], out_dir: str | Path, force: bool
         "<table><tr><th>method</th><th>t_err [%]</th><th>r_err [deg/m]</th><th>segments</th></tr>"
         f"{pooled_rows}</table>",
         "<h2>Timing on this machine</h2>", _timing_table(runs),
-        "<p>Seconds per frame by stage. The learned method's flow time is measured when its flow cache is "
-        "filled; its network time is batched inference. Speed-ups divide the reference system's 0.633 s/frame "
-        "(GPU) and the same sequence's first classical run by each method's total.</p>",
+        "<p>Seconds per frame by stage, streaming one frame at a time; image reading runs in its own thread, "
+        "overlapped with the others, and the total is wall-clock. Speed-ups divide the reference system's "
+        "0.633 s/frame (GPU) and the same sequence's first classical run by each method's total.</p>",
         "<h2>Figures</h2>",
         *(f"<figure{' class=wide' if name.startswith(('path_', 'frame_errors_')) else ''}><img src='{name}' "
           f"alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}</figcaption></figure>"
