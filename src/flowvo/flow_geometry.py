@@ -57,6 +57,29 @@ def sample_points(image: np.ndarray, K: np.ndarray, motion_points: int = 600, ce
     return FlowSamples(motion, road)
 
 
+def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.05, 0.42),
+              half_width: float = 0.25) -> tuple[slice, slice]:
+    """The part of the frame whose dense flow the road scale needs: the road band of :func:`sample_points`
+    with margins (road points move down and outwards between frames). Rows ``cy + rows * H``, columns
+    within ``half_width * W`` of the principal point."""
+    h, w = image_hw
+    cx, cy = K[0, 2], K[1, 2]
+    return (slice(int(cy + rows[0] * h), min(h, int(cy + rows[1] * h))),
+            slice(max(0, int(cx - half_width * w)), min(w, int(cx + half_width * w))))
+
+
+def track_points(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal Lucas-Kanade tracks of ``points_px`` (N, 2): the points that were found and where
+    they moved to, each (M, 2) float32, pixels."""
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
+    start = points_px.reshape(-1, 1, 2).astype(np.float32)
+    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, None, winSize=(15, 15), maxLevel=3,
+                                                criteria=criteria)
+    found = status[:, 0] == 1
+    return start[found, 0], moved[found, 0]
+
+
 def follow_flow(points_px: np.ndarray, flow_px: np.ndarray) -> np.ndarray:
     """Where integer-pixel ``points_px`` (N, 2) land in the next frame by ``flow_px`` (H, W, 2)."""
     xs, ys = points_px[:, 0].astype(np.int64), points_px[:, 1].astype(np.int64)
@@ -75,25 +98,34 @@ class EssentialMotion:
 
 def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
                      threshold_px: float = 0.5, min_inliers: int = 30) -> EssentialMotion | None:
-    """Motion up to scale from correspondences (N, 2) by RANSAC on the essential matrix; None when the
-    fit fails or keeps fewer than ``min_inliers`` points."""
+    """Motion up to scale from correspondences (N, 2) by USAC on the essential matrix; of the four
+    decompositions, the one that puts most inliers in front of both cameras. None when the fit fails or
+    keeps fewer than ``min_inliers`` points."""
     if len(points_prev) < min_inliers:
         return None
     E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.USAC_FAST, 0.999, threshold_px)
-    if E is None or E.shape != (3, 3):
+    if E is None or E.shape != (3, 3) or mask is None:
         return None
-    count, R, t, mask = cv2.recoverPose(E, points_prev, points_next, K, mask=mask)
-    if count < min_inliers:
+    inliers = mask[:, 0] > 0
+    if inliers.sum() < min_inliers:
         return None
-    return EssentialMotion(R, t[:, 0] / np.linalg.norm(t), mask[:, 0] > 0)
+    R_a, R_b, t = cv2.decomposeEssentialMat(E)
+    best, best_count = None, -1
+    for R, t_dir in ((R_a, t[:, 0]), (R_a, -t[:, 0]), (R_b, t[:, 0]), (R_b, -t[:, 0])):
+        candidate = EssentialMotion(R, t_dir / np.linalg.norm(t_dir), inliers)
+        depth_prev, depth_next = _depths(points_prev[inliers], points_next[inliers], K, candidate)
+        count = int(((depth_prev > 0) & (depth_next > 0)).sum())
+        if count > best_count:
+            best, best_count = candidate, count
+    return best if best_count >= min_inliers else None
 
 
-def triangulate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
-                ) -> np.ndarray:
-    """3-D points (N, 3) in the first camera's frame, in units of the step length (midpoint method).
+def _depths(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """Depths along the rays of both cameras (midpoint method), in units of the step length.
 
     With rays ``u = R r1`` and ``v = r2`` (second camera's frame) and ``X2 = R X1 + t``, the depths
-    minimise ``|l1 u + t - l2 v|^2``: a 2x2 linear system per point, solved in closed form.
+    ``l1, l2`` minimise ``|l1 u + t - l2 v|^2``: a 2x2 linear system per point, solved in closed form.
     """
     K_inv = np.linalg.inv(K)
     u = (np.c_[points_prev, np.ones(len(points_prev))] @ K_inv.T) @ motion.R.T
@@ -102,8 +134,14 @@ def triangulate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
     uu, vv, uv = (np.einsum("ij,ij->i", a, b) for a, b in ((u, u), (v, v), (u, v)))
     ut, vt = u @ t, v @ t
     determinant = np.maximum(uu * vv - uv * uv, 1e-18)
-    depth_prev = (-ut * vv + uv * vt) / determinant
-    return (np.c_[points_prev, np.ones(len(points_prev))] @ K_inv.T) * depth_prev[:, None]
+    return (-ut * vv + uv * vt) / determinant, (uu * vt - uv * ut) / determinant
+
+
+def triangulate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
+                ) -> np.ndarray:
+    """3-D points (N, 3) in the first camera's frame, in units of the step length (midpoint method)."""
+    depth_prev, _ = _depths(points_prev, points_next, K, motion)
+    return (np.c_[points_prev, np.ones(len(points_prev))] @ np.linalg.inv(K).T) * depth_prev[:, None]
 
 
 def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float = 0.95,

@@ -8,10 +8,11 @@ camera's frame, metres), called once per step in frame order, so it may keep his
 stacked network, the speed prior). Every caller therefore runs exactly the same inference.
 
 Methods:
-- ``flowvo`` (default): dense DIS flow at the working resolution; rotation and translation direction from
-  an essential matrix fitted to the flow at textured points; metric step length from the road plane at
-  the known camera height, filtered by a smooth-speed prior; standstill below half a pixel of flow.
-  No ground truth enters it.
+- ``flowvo`` (default): rotation and translation direction from an essential matrix fitted to textured
+  points tracked over the whole frame (pyramidal Lucas-Kanade); metric step length from the road plane,
+  triangulated from the dense DIS flow of the road ahead at the working resolution, at the known camera
+  height, filtered by a smooth-speed prior; standstill below half a pixel of motion. No ground truth
+  enters it.
 - ``cnn``: the thesis network (distance and heading change regressed from the flow field).
 - ``classical``: KLT corners + essential matrix, scale from the camera height (sparse baseline).
 """
@@ -19,6 +20,7 @@ Methods:
 from __future__ import annotations
 
 from collections import deque
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import cv2
@@ -27,7 +29,16 @@ import torch
 
 from flowvo.classical_vo import CAMERA_HEIGHT_M, ClassicalTracker
 from flowvo.flow.registry import create_estimator
-from flowvo.flow_geometry import essential_motion, follow_flow, road_step_length_m, sample_points, se3_next_prev
+from flowvo.flow_geometry import (
+    FlowSamples,
+    essential_motion,
+    follow_flow,
+    road_crop,
+    road_step_length_m,
+    sample_points,
+    se3_next_prev,
+    track_points,
+)
 from flowvo.geometry import chain_planar, chain_se3, invert_se3, se3_from_targets
 from flowvo.model.data import Normalization, resize_flow
 from flowvo.model.deployable import DeployableOdometry
@@ -71,8 +82,31 @@ class _WorkingFrames:
         return cv2.resize(image, self.working_hw[::-1], interpolation=cv2.INTER_AREA)
 
 
+@dataclass(frozen=True)
+class GeometryFrame:
+    """A working frame of the default method with its sample points (computed once per frame, in the
+    reader thread)."""
+
+    image: np.ndarray
+    samples: FlowSamples
+
+
+@dataclass(frozen=True)
+class GeometryFlow:
+    """What the default method measures between two working frames: ``motion_prev`` -> ``motion_next``
+    (M, 2) tracked textured points for the rotation and translation direction, and ``road_prev`` ->
+    ``road_next`` (R, 2) road-band points moved by the dense flow field of the road crop; pixels."""
+
+    motion_prev: np.ndarray
+    motion_next: np.ndarray
+    road_prev: np.ndarray
+    road_next: np.ndarray
+
+
 class FlowGeometryStep(_WorkingFrames):
-    """The default method: dense flow, essential matrix, road-plane scale, smooth-speed prior."""
+    """The default method: tracked points give the essential matrix (rotation, direction); the dense
+    flow of the road ahead gives the road plane and with the camera height the metric step; a
+    smooth-speed prior filters the steps."""
 
     motion_stage = "geometry"
 
@@ -80,33 +114,42 @@ class FlowGeometryStep(_WorkingFrames):
                  flow_method: str = DEFAULT_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
                  camera_height_m: float = CAMERA_HEIGHT_M) -> None:
         super().__init__(intrinsics, image_size_hw, working_width)
-        self.label = f"flowvo ({flow_method} flow + geometry, road-plane scale)"
+        self.label = f"flowvo (dense {flow_method} road flow + geometry)"
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = camera_height_m
+        self.crop = road_crop(self.working_hw, self.K)
+        self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self.still_flow_px = STILL_FLOW_PX_AT_620 * self.working_hw[1] / 620.0
         self.threshold_px = 0.25 * self.working_hw[1] / 620.0
         self.speed = SpeedPrior()
         self.last_motion = np.eye(4)
 
-    def flow(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
-        """Dense flow (H, W, 2), pixels of the working frame."""
-        return self.estimator.estimate(previous, current)
+    def prepare(self, image: np.ndarray) -> GeometryFrame:
+        """The working frame and its sample points."""
+        working = super().prepare(image)
+        return GeometryFrame(working, sample_points(working, self.K))
 
-    def motion(self, times_s: tuple[float, float], previous: np.ndarray, flow: np.ndarray) -> np.ndarray:
-        """``T_prev_cur`` from the flow field of the step between ``times_s`` (previous, current), seconds."""
-        time_s = times_s[1]
-        dt_s = times_s[1] - times_s[0]
-        samples = sample_points(previous, self.K)
-        moved = follow_flow(samples.motion_px, flow)
-        if np.median(np.linalg.norm(moved - samples.motion_px, axis=1)) < self.still_flow_px:
+    def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
+        """Point tracks over the whole frame and the dense flow of the road crop."""
+        motion_prev, motion_next = track_points(previous.image, current.image, previous.samples.motion_px)
+        road_flow = self.estimator.estimate(np.ascontiguousarray(previous.image[self.crop]),
+                                            np.ascontiguousarray(current.image[self.crop]))
+        road_prev = previous.samples.road_px
+        road_next = follow_flow(road_prev - self.crop_origin, road_flow) + self.crop_origin
+        return GeometryFlow(motion_prev, motion_next, road_prev, road_next)
+
+    def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
+        """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
+        time_s, dt_s = times_s[1], times_s[1] - times_s[0]
+        moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
+        if len(moved_px) and np.median(moved_px) < self.still_flow_px:
             self.speed.stop(time_s)
             self.last_motion = np.eye(4)
             return self.last_motion
-        fit = essential_motion(samples.motion_px, moved, self.K, threshold_px=self.threshold_px)
+        fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)
         if fit is None:  # degenerate: keep the last motion (constant velocity)
             return self.last_motion
-        road_moved = follow_flow(samples.road_px, flow)
-        step_m = road_step_length_m(samples.road_px, road_moved, self.K, fit, self.camera_height_m)
+        step_m = road_step_length_m(flow.road_prev, flow.road_next, self.K, fit, self.camera_height_m)
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
