@@ -42,15 +42,20 @@ def check_evaluable(gt: Trajectory, pred: Trajectory, gt_source: str | Path = "g
                           "evaluation needs at least 2", pred_source)
 
 
-def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> Evaluation:
-    """The KITTI odometry metric (needs no alignment), ATE after ``alignment``, and one-frame RPE."""
+def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none",
+             lengths_m: tuple[float, ...] = kitti.SEGMENT_LENGTHS_M) -> Evaluation:
+    """The KITTI odometry metric on sub-paths of ``lengths_m`` (default the devkit's 100..800 m; needs no
+    alignment), ATE after ``alignment``, and one-frame RPE."""
     check_evaluable(gt, pred)
-    segments = kitti.sequence_segment_errors(gt, pred)
+    lengths_m = tuple(float(L) for L in lengths_m)
+    segments = kitti.sequence_segment_errors(gt, pred, lengths_m)
     if len(segments):
-        metrics = kitti.summarize(segments)
-    else:  # shorter than 100 m: the KITTI metric is undefined, ATE and RPE still are
+        metrics = kitti.summarize(segments, lengths_m)
+    else:  # shorter than the shortest sub-path: the metric is undefined, ATE and RPE still are
         metrics = {"t_err_percent": None, "r_err_deg_per_m": None, "r_err_deg_per_100m": None, "segments": 0,
-                   "per_length": [], "per_speed": [], "note": "no 100..800 m segment: path shorter than 100 m"}
+                   "segment_lengths_m": list(lengths_m), "per_length": [], "per_speed": [],
+                   "note": f"no segment of {format_lengths(lengths_m)}: path shorter than {min(lengths_m):g} m"}
+    metrics["devkit_lengths"] = lengths_m == kitti.SEGMENT_LENGTHS_M
     metrics["units"] = {
         "t_err_percent": "% of segment length",
         "r_err_deg_per_m": "degrees per metre",
@@ -66,27 +71,41 @@ def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none") -> Evalu
     return Evaluation(metrics, gt, pred, segments, per_frame_errors(gt, pred))
 
 
-def evaluate_files(gt_path: str | Path, pred_path: str | Path, alignment: str = "none") -> Evaluation:
+def format_lengths(lengths_m: tuple[float, ...]) -> str:
+    """'100..800 m' for the devkit's lengths, else the list, e.g. '10, 20, 30 m'."""
+    if tuple(lengths_m) == kitti.SEGMENT_LENGTHS_M:
+        return "100..800 m"
+    return ", ".join(f"{L:g}" for L in lengths_m) + " m"
+
+
+def evaluate_files(gt_path: str | Path, pred_path: str | Path, alignment: str = "none",
+                   lengths_m: tuple[float, ...] = kitti.SEGMENT_LENGTHS_M) -> Evaluation:
     """Read two KITTI pose files and evaluate; the files are named in the metrics."""
     gt, pred = read_kitti_poses(gt_path), read_kitti_poses(pred_path)
     check_evaluable(gt, pred, gt_path, pred_path)
-    evaluation = evaluate(gt, pred, alignment)
+    evaluation = evaluate(gt, pred, alignment, lengths_m)
     evaluation.metrics["gt_file"] = str(gt_path)
     evaluation.metrics["pred_file"] = str(pred_path)
     return evaluation
 
 
 def pooled_summary(evaluations: list[Evaluation]) -> dict:
-    """The multi-sequence KITTI average: all segments of all sequences together."""
-    return kitti.summarize(kitti.SegmentErrors.concatenate([e.segments for e in evaluations]))
+    """The multi-sequence KITTI average: all segments of all sequences together (evaluated on the same
+    sub-path lengths)."""
+    lengths_m = tuple(evaluations[0].metrics.get("segment_lengths_m", kitti.SEGMENT_LENGTHS_M))
+    return kitti.summarize(kitti.SegmentErrors.concatenate([e.segments for e in evaluations]), lengths_m)
 
 
 def format_table(metrics: dict) -> str:
     """A short human-readable table of the headline numbers, with units."""
+    lengths_m = tuple(metrics.get("segment_lengths_m", kitti.SEGMENT_LENGTHS_M))
+    sub_paths = ("sub-paths", format_lengths(lengths_m) + ("" if metrics.get("devkit_lengths", True)
+                                                           else "  (not the devkit's 100..800 m)"))
     if metrics["t_err_percent"] is None:
-        kitti_rows = [("t_err", "n/a (path shorter than 100 m)"), ("r_err", "n/a")]
+        kitti_rows = [sub_paths, ("t_err", f"n/a (path shorter than {min(lengths_m):g} m)"), ("r_err", "n/a")]
     else:
         kitti_rows = [
+            sub_paths,
             ("t_err", f"{metrics['t_err_percent']:.4f} %"),
             ("r_err", f"{metrics['r_err_deg_per_m']:.6f} deg/m  ({metrics['r_err_deg_per_100m']:.4f} deg/100m)"),
         ]

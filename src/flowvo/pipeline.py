@@ -19,6 +19,7 @@ from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.geometry import planar_targets
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
+from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
 from flowvo.outputs import prepare_output_dir, run_outputs
 from flowvo.sources.base import FrameSource
 from flowvo.trajectory import Trajectory
@@ -53,6 +54,7 @@ class RunOptions:
     flow_method: str | None = None
     classical_scale: str = "height"
     max_frames: int | None = None
+    lengths_m: tuple[float, ...] = SEGMENT_LENGTHS_M  # evaluation sub-paths (the devkit's by default)
     label: str | None = None
     force: bool = False  # replace the earlier result of this drive in ``out`` (else refused)
     mcap: bool = False
@@ -155,7 +157,7 @@ def run(options: RunOptions) -> dict:
     if source.ground_truth is not None:
         gt = source.ground_truth.subset(np.arange(result.frames)) if result.frames < len(source.ground_truth) \
             else source.ground_truth
-        evaluation = evaluate(gt, trajectory)
+        evaluation = evaluate(gt, trajectory, lengths_m=options.lengths_m)
         save_evaluation(evaluation, out / f"eval_{source.name}")
         summary["metrics"] = {k: evaluation.metrics[k] for k in ("t_err_percent", "r_err_deg_per_m", "ate_rmse_m")}
     write_json_atomic(out / "run.json", summary)

@@ -90,8 +90,12 @@ def mean_float32(values: np.ndarray) -> float:
     return float(total / np.float32(len(values)))
 
 
-def sequence_segment_errors(gt: Trajectory, pred: Trajectory) -> SegmentErrors:
+def sequence_segment_errors(gt: Trajectory, pred: Trajectory,
+                            lengths_m: tuple[float, ...] = SEGMENT_LENGTHS_M) -> SegmentErrors:
     """All devkit segment errors of one sequence. ``gt`` must be complete (frames 0..N-1).
+
+    ``lengths_m``: the sub-path lengths (the devkit's 100..800 m by default; shorter ones score short
+    drives the same way, and are reported as such).
 
     Poses and their inverses in double with a general inverse (as the devkit's ``Matrix::inv``, not R^T);
     distances, error norms and the division by the length in float32, as the devkit's ``float`` variables.
@@ -105,7 +109,7 @@ def sequence_segment_errors(gt: Trajectory, pred: Trajectory) -> SegmentErrors:
     pred_index[pred.frame_ids[present]] = np.flatnonzero(present)
     firsts, lasts, lengths = [], [], []
     for first in range(0, n_frames, STEP_FRAMES):
-        for length in SEGMENT_LENGTHS_M:
+        for length in lengths_m:
             last = last_frame_from_segment_length(distances, first, length)
             if last == -1 or pred_index[first] < 0 or pred_index[last] < 0:
                 continue
@@ -114,7 +118,7 @@ def sequence_segment_errors(gt: Trajectory, pred: Trajectory) -> SegmentErrors:
             lengths.append(length)
     first_idx = np.asarray(firsts, dtype=np.int64)
     last_idx = np.asarray(lasts, dtype=np.int64)
-    lengths_m = np.asarray(lengths, dtype=np.float32)
+    segment_m = np.asarray(lengths, dtype=np.float32)
     G, P = gt.T_world_cam, pred.T_world_cam
     delta_gt = np.linalg.inv(G[first_idx]) @ G[last_idx]
     delta_pred = np.linalg.inv(P[pred_index[first_idx]]) @ P[pred_index[last_idx]]
@@ -122,10 +126,10 @@ def sequence_segment_errors(gt: Trajectory, pred: Trajectory) -> SegmentErrors:
     frames = (last_idx - first_idx + 1).astype(np.float32)
     return SegmentErrors(
         first_frame=first_idx,
-        r_err_rad_per_m=rotation_error_rad(pose_error) / lengths_m,
-        t_err=translation_error_m(pose_error) / lengths_m,
-        length_m=lengths_m,
-        speed_mps=(lengths_m / (FRAME_PERIOD_S * frames.astype(np.float64))).astype(np.float32),
+        r_err_rad_per_m=rotation_error_rad(pose_error) / segment_m,
+        t_err=translation_error_m(pose_error) / segment_m,
+        length_m=segment_m,
+        speed_mps=(segment_m / (FRAME_PERIOD_S * frames.astype(np.float64))).astype(np.float32),
     )
 
 
@@ -148,14 +152,13 @@ def _binned(errors: SegmentErrors, mask_per_bin: list[np.ndarray], centres: tupl
     return rows
 
 
-def summarize(errors: SegmentErrors) -> dict:
-    """Average errors and the per-length and per-speed curves, with units in every key."""
+def summarize(errors: SegmentErrors, lengths_m: tuple[float, ...] = SEGMENT_LENGTHS_M) -> dict:
+    """Average errors and the per-length and per-speed curves, with units in every key; ``lengths_m``
+    are the sub-path lengths the segments were cut at (recorded in the result)."""
     if len(errors) == 0:
-        raise ValueError("no segment of 100..800 m: the trajectory is shorter than 100 m or lacks frames")
+        raise ValueError(f"no segment: the trajectory is shorter than {min(lengths_m):g} m or lacks frames")
     r_mean = mean_float32(errors.r_err_rad_per_m)
-    per_length = _binned(
-        errors, [np.abs(errors.length_m - L) < 1.0 for L in SEGMENT_LENGTHS_M], SEGMENT_LENGTHS_M, "length_m"
-    )
+    per_length = _binned(errors, [np.abs(errors.length_m - L) < 1.0 for L in lengths_m], lengths_m, "length_m")
     per_speed = _binned(
         errors,
         [np.abs(errors.speed_mps - s) < SPEED_BIN_HALF_WIDTH_MPS for s in SPEED_BINS_MPS],
@@ -167,6 +170,7 @@ def summarize(errors: SegmentErrors) -> dict:
         "r_err_deg_per_m": float(np.degrees(r_mean)),
         "r_err_deg_per_100m": 100.0 * float(np.degrees(r_mean)),
         "segments": len(errors),
+        "segment_lengths_m": [float(L) for L in lengths_m],
         "per_length": per_length,
         "per_speed": per_speed,
     }
