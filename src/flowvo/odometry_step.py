@@ -142,8 +142,10 @@ class FlowGeometryStep(_WorkingFrames):
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        if len(moved_px) and np.median(moved_px) < self.still_flow_px:
-            self.speed.stop(time_s)
+        road_moved_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
+        if np.median(road_moved_px) < self.still_flow_px and (not len(moved_px) or
+                                                              np.median(moved_px) < self.still_flow_px):
+            self.speed.stop(time_s)  # the road and the scene stand still (distant points alone can mislead)
             self.last_motion = np.eye(4)
             return self.last_motion
         fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)

@@ -1,0 +1,85 @@
+"""The default method's geometry on exact synthetic correspondences: motion, triangulation, road plane."""
+
+import numpy as np
+import pytest
+
+from flowvo.flow_geometry import (
+    EssentialMotion,
+    essential_motion,
+    fit_road_plane,
+    road_step_length_m,
+    sample_points,
+    triangulate,
+)
+from flowvo.geometry import so3_exp
+
+K = np.array([[350.0, 0.0, 300.0], [0.0, 350.0, 92.0], [0.0, 0.0, 1.0]])
+HEIGHT_M = 1.65
+
+
+def project(points: np.ndarray) -> np.ndarray:
+    """Pixels (N, 2) of camera-frame points (N, 3)."""
+    pixels = points @ K.T
+    return pixels[:, :2] / pixels[:, 2:]
+
+
+def scene_and_motion(step_m: float = 1.2, yaw_rad: float = 0.02):
+    """Random scene points and road points (camera frame), a motion X2 = R X1 + t of a car moving
+    forward ``step_m`` while turning ``yaw_rad``."""
+    rng = np.random.default_rng(3)
+    scene = np.c_[rng.uniform(-20, 20, 400), rng.uniform(-6, 1.5, 400), rng.uniform(6, 60, 400)]
+    road = np.c_[rng.uniform(-3, 3, 300), np.full(300, HEIGHT_M), rng.uniform(5, 25, 300)]
+    R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
+    t = -R @ np.array([0.0, 0.0, step_m])  # camera centre moves forward by step_m
+    return scene, road, R, t
+
+
+def test_essential_motion_recovers_rotation_and_direction_exactly():
+    scene, _, R, t = scene_and_motion()
+    fit = essential_motion(project(scene), project(scene @ R.T + t), K, threshold_px=0.25)
+    assert fit is not None and fit.inliers.all()
+    np.testing.assert_allclose(fit.R, R, atol=1e-6)
+    np.testing.assert_allclose(fit.t_dir, t / np.linalg.norm(t), atol=1e-6)
+
+
+def test_triangulation_returns_points_in_step_units():
+    scene, _, R, t = scene_and_motion(step_m=2.0)
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(scene), bool))
+    points = triangulate(project(scene), project(scene @ R.T + t), K, motion)
+    np.testing.assert_allclose(points * 2.0, scene, rtol=1e-6)
+
+
+def test_road_plane_gives_the_metric_step_from_the_camera_height():
+    _, road, R, t = scene_and_motion(step_m=1.37)
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
+    step = road_step_length_m(project(road), project(road @ R.T + t), K, motion, HEIGHT_M)
+    assert step == pytest.approx(1.37, rel=1e-6)
+
+
+def test_road_plane_ignores_points_above_the_road_and_finds_a_pitched_plane():
+    rng = np.random.default_rng(5)
+    pitch = np.radians(1.5)
+    normal = np.array([0.0, np.cos(pitch), -np.sin(pitch)])
+    xz = np.c_[rng.uniform(-3, 3, 300), rng.uniform(5, 25, 300)]
+    y = (2.0 - normal[0] * xz[:, 0] - normal[2] * xz[:, 1]) / normal[1]  # n . X = 2
+    road = np.c_[xz[:, 0], y, xz[:, 1]]
+    boxes = np.c_[rng.uniform(-3, 3, 80), rng.uniform(0.5, 1.2, 80), rng.uniform(5, 25, 80)]  # cars, kerbs
+    distance, fitted = fit_road_plane(np.r_[road, boxes])
+    assert distance == pytest.approx(2.0, rel=1e-9)
+    np.testing.assert_allclose(fitted, normal, atol=1e-9)
+
+
+def test_no_plane_without_enough_points_below_the_camera():
+    assert fit_road_plane(np.array([[0.0, -1.0, 5.0]] * 50)) is None
+
+
+def test_samples_are_textured_points_and_a_road_band_inside_the_frame():
+    rng = np.random.default_rng(0)
+    image = np.zeros((188, 620), np.uint8)
+    image[::2, ::3] = rng.integers(0, 255, image[::2, ::3].shape)
+    samples = sample_points(image, K, motion_points=200)
+    assert len(samples.motion_px) == 200
+    assert samples.motion_px.min() >= 0 and (samples.motion_px < [620, 188]).all()
+    road_rows = samples.road_px[:, 1]
+    assert road_rows.min() >= K[1, 2] + 0.1 * 188 - 1 and road_rows.max() <= K[1, 2] + 0.35 * 188
+    assert np.abs(samples.road_px[:, 0] - K[0, 2]).max() <= 0.2 * 620

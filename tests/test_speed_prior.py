@@ -1,0 +1,38 @@
+"""The smooth-speed prior: follows acceleration, ignores outliers, restarts after a stop."""
+
+import numpy as np
+import pytest
+
+from flowvo.speed_prior import SpeedPrior, robust_line_value
+
+
+def test_a_line_through_exact_measurements_is_reproduced():
+    times = np.arange(9) * 0.1
+    assert robust_line_value(times, 2.0 + 3.0 * times, at_s=0.8) == pytest.approx(4.4, abs=1e-9)
+
+
+def test_constant_acceleration_from_a_stop_is_followed_without_lag():
+    prior = SpeedPrior()
+    prior.stop(0.0)
+    for i in range(1, 30):
+        speed = prior.update(0.1 * i, 2.0 * 0.1 * i)  # 2 m/s^2
+    assert speed == pytest.approx(2.0 * 2.9, abs=1e-6)
+
+
+def test_a_wild_measurement_barely_moves_the_speed():
+    prior = SpeedPrior()
+    for i in range(10):
+        prior.update(0.1 * i, 10.0)
+    assert prior.update(1.0, 50.0) == pytest.approx(10.0, abs=0.05)  # beyond the plausible: rejected
+    assert prior.update(1.1, 16.0) == pytest.approx(10.0, abs=1.0)  # a 60 % jump: moves it under 15 %
+
+
+def test_a_missing_measurement_keeps_the_trend():
+    prior = SpeedPrior()
+    for i in range(9):
+        prior.update(0.1 * i, 5.0 + 0.1 * i)
+    assert prior.update(0.9, None) == pytest.approx(5.9, abs=1e-6)
+
+
+def test_no_measurement_yet_gives_none():
+    assert SpeedPrior().update(0.0, None) is None

@@ -1,0 +1,71 @@
+"""The streaming pipeline gives exactly the poses of running the step's stages one after another."""
+
+import numpy as np
+import pytest
+
+from flowvo.errors import FlowvoError
+from flowvo.stream import stream_odometry
+
+
+class CountingStep:
+    """A deterministic step: the motion depends on both frames, the times and the previous motions."""
+
+    label = "test step"
+    motion_stage = "geometry"
+
+    def __init__(self) -> None:
+        self.calls = 0
+
+    def prepare(self, image):
+        return image.astype(np.float64)
+
+    def flow(self, previous, current):
+        return float(current.mean() - previous.mean())
+
+    def motion(self, times_s, previous, flow):
+        self.calls += 1
+        motion = np.eye(4)
+        motion[0, 3] = flow * (times_s[1] - times_s[0]) + 0.01 * self.calls
+        return motion
+
+
+def frames(count=25):
+    rng = np.random.default_rng(1)
+    return [(0.1 * i + 0.003 * i * i, rng.integers(0, 255, (8, 12)).astype(np.uint8)) for i in range(count)]
+
+
+def test_stream_poses_equal_the_sequential_stages():
+    result = stream_odometry(iter(frames()), CountingStep())
+    step, pose, expected = CountingStep(), np.eye(4), [np.eye(4)]
+    data = frames()
+    for (t0, a), (t1, b) in zip(data, data[1:], strict=False):
+        pose = pose @ step.motion((t0, t1), None, step.flow(step.prepare(a), step.prepare(b)))
+        expected.append(pose)
+    np.testing.assert_array_equal(result.T_world_cam, np.stack(expected))
+    np.testing.assert_array_equal(result.timestamps_s, [t for t, _ in data])
+    assert result.frames == 25 and result.wall_seconds > 0
+
+
+def test_max_frames_stops_early():
+    assert stream_odometry(iter(frames()), CountingStep(), max_frames=5).frames == 5
+
+
+def test_timestamps_that_do_not_increase_are_refused():
+    data = frames(6)
+    data[3] = (data[2][0], data[3][1])
+    with pytest.raises(FlowvoError, match="timestamps must increase: frame 3"):
+        stream_odometry(iter(data), CountingStep())
+
+
+def test_an_error_in_the_source_reaches_the_caller():
+    def broken():
+        yield from frames(4)
+        raise FlowvoError("cannot decode frame 4", "drive.avi")
+
+    with pytest.raises(FlowvoError, match="drive.avi: cannot decode frame 4"):
+        stream_odometry(broken(), CountingStep())
+
+
+def test_an_empty_source_is_refused():
+    with pytest.raises(FlowvoError, match="no frames"):
+        stream_odometry(iter([]), CountingStep())
