@@ -28,6 +28,7 @@ import numpy as np
 import torch
 
 from flowvo.classical_vo import CAMERA_HEIGHT_M, ClassicalTracker
+from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
 from flowvo.flow_geometry import (
     FlowSamples,
@@ -49,6 +50,7 @@ from flowvo.speed_prior import SpeedPrior
 STILL_FLOW_PX_AT_620 = 0.5
 DEFAULT_FLOW_METHOD = "dis-medium-fine"
 DEFAULT_WORKING_WIDTH = 620
+MIN_FLOW_SIDE_PX = 32
 
 
 class OdometryStep(Protocol):
@@ -118,6 +120,11 @@ class FlowGeometryStep(_WorkingFrames):
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = camera_height_m
         self.crop = road_crop(self.working_hw, self.K)
+        crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
+        if min(crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
+            raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
+                              f"method: its road crop is {crop_hw[1]}x{crop_hw[0]} px, the flow needs at least "
+                              f"{MIN_FLOW_SIDE_PX} px a side (frames of 240 px height or more work)")
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self.still_flow_px = STILL_FLOW_PX_AT_620 * self.working_hw[1] / 620.0
         self.threshold_px = 0.25 * self.working_hw[1] / 620.0
@@ -166,6 +173,9 @@ class CnnStep(_WorkingFrames):
     def __init__(self, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int], model: OdometryNet,
                  normalization: Normalization, flow_method: str, working_width: int) -> None:
         super().__init__(intrinsics, image_size_hw, working_width)
+        if min(self.working_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
+            raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the flow "
+                              f"(at least {MIN_FLOW_SIDE_PX} px a side)")
         self.label = f"CNN ({flow_method} flow + network)"
         self.network = DeployableOdometry(model, normalization)
         self.estimator = create_estimator(flow_method)

@@ -1,0 +1,90 @@
+"""One drive, three containers: a KITTI folder, a lossless video and ROS bags give the same poses through
+``flowvo run``; the bag run also writes a nav_msgs/Odometry MCAP. And ``bench --json``."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from flowvo.cli import main
+from flowvo.kitti.calib import read_calibration
+from flowvo.kitti.sequence import KittiSequence
+from flowvo.synth.dataset import synthesize
+
+pytest.importorskip("rosbags")
+
+from ros_bags import BagSpec, write_bag  # noqa: E402
+from rosbags.highlevel import AnyReader  # noqa: E402
+from rosbags.typesys import Stores, get_typestore  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def drive(tmp_path_factory):
+    root = tmp_path_factory.mktemp("drive")
+    synthesize(root, ["00"], seed=4, frames=24, scale=0.5, workers=1)  # even frame sizes: video codecs need them
+    sequence = KittiSequence(root, "00")
+    frames = [sequence.read_image(i) for i in range(len(sequence))]
+    runs = tmp_path_factory.mktemp("runs")
+    assert main(["-q", "run", "--data", str(root), "--sequence", "00", "--out", str(runs / "kitti")]) == 0
+    return root, sequence, frames, runs, np.loadtxt(runs / "kitti" / "00.txt")
+
+
+def test_a_video_of_the_frames_gives_the_same_poses(drive, tmp_path):
+    root, sequence, frames, _, kitti_poses = drive
+    video = tmp_path / "dash cam.avi"
+    h, w = frames[0].shape
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"FFV1"), 10.0, (w, h))
+    for frame in frames:
+        writer.write(cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR))
+    writer.release()
+    out = tmp_path / "out"
+    assert main(["-q", "run", "--video", str(video), "--calib", str(root / "sequences/00/calib.txt"),
+                 "--out", str(out)]) == 0
+    np.testing.assert_allclose(np.loadtxt(out / "dash_cam.txt"), kitti_poses, atol=1e-9)
+    stamps = np.loadtxt(out / "dash_cam.tum")[:, 0]
+    np.testing.assert_allclose(stamps, np.arange(len(frames)) * 0.1, atol=1e-6)
+
+
+def test_a_video_without_intrinsics_is_one_clear_error(drive, tmp_path, capsys):
+    video = tmp_path / "v.avi"
+    writer = cv2.VideoWriter(str(video), cv2.VideoWriter_fourcc(*"FFV1"), 10.0, (64, 48))
+    writer.write(np.zeros((48, 64, 3), np.uint8))
+    writer.release()
+    assert main(["run", "--video", str(video), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "intrinsics" in err[0]
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("kind", ["ros1", "ros2-mcap"])
+def test_a_bag_of_the_frames_gives_the_same_poses_and_an_odometry_mcap(drive, tmp_path, kind):
+    root, sequence, frames, _, kitti_poses = drive
+    stamps_ns = [int(round(t * 1e9)) + 1_700_000_000_000_000_000 for t in sequence.times_s]
+    K = read_calibration(root / "sequences/00/calib.txt").K0
+    bag = write_bag(tmp_path, kind, BagSpec(frames, stamps_ns, encoding="mono8", K=K))
+    out = tmp_path / "out"
+    assert main(["-q", "run", "--bag", str(bag), "--topic", "/camera/image_raw",
+                 "--camera-info-topic", "/camera/camera_info", "--out", str(out)]) == 0
+    np.testing.assert_allclose(np.loadtxt(out / "drive.txt"), kitti_poses, atol=1e-6)
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    with AnyReader([out / "drive.mcap"], default_typestore=store) as reader:
+        odometry = [c for c in reader.connections if c.topic == "/flowvo/odom"]
+        messages = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages(connections=odometry)]
+    assert len(messages) == len(frames)
+    last = messages[-1]
+    assert last.header.stamp.sec * 10**9 + last.header.stamp.nanosec == pytest.approx(stamps_ns[-1], abs=200)
+    position = last.pose.pose.position
+    assert np.linalg.norm([position.x, position.y, position.z]) == pytest.approx(
+        np.linalg.norm(kitti_poses[-1][[3, 7, 11]]), rel=1e-6)
+
+
+def test_bench_json_rows_start_with_the_default_method(drive, tmp_path, capsys):
+    root = drive[0]
+    assert main(["-q", "bench", "--data", str(root), "--sequence", "00", "--frames", "8", "--repeat", "1",
+                 "--methods", "flowvo", "classical", "--json", str(tmp_path / "b.json")]) == 0
+    rows = json.loads((tmp_path / "b.json").read_text())["rows"]
+    assert [row["method"] for row in rows] == ["flowvo", "classical"]
+    for row in rows:
+        assert row["frames_per_second"] > 0 and row["label"]
+        assert {"image_read_s", "flow_s", "network_s", "geometry_s", "chaining_s", "total_s"} <= set(row)
