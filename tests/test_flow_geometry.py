@@ -64,9 +64,18 @@ def test_road_plane_ignores_points_above_the_road_and_finds_a_pitched_plane():
     y = (2.0 - normal[0] * xz[:, 0] - normal[2] * xz[:, 1]) / normal[1]  # n . X = 2
     road = np.c_[xz[:, 0], y, xz[:, 1]]
     boxes = np.c_[rng.uniform(-3, 3, 80), rng.uniform(0.5, 1.2, 80), rng.uniform(5, 25, 80)]  # cars, kerbs
-    distance, fitted = fit_road_plane(np.r_[road, boxes])
-    assert distance == pytest.approx(2.0, rel=1e-9)
-    np.testing.assert_allclose(fitted, normal, atol=1e-9)
+    plane = fit_road_plane(np.r_[road, boxes])
+    assert plane.distance == pytest.approx(2.0, rel=1e-9)
+    np.testing.assert_allclose(plane.normal, normal, atol=1e-9)
+    assert plane.tilt_rad == pytest.approx(pitch, abs=1e-9) and plane.inlier_fraction == pytest.approx(300 / 380)
+
+
+def test_a_slope_ahead_is_not_taken_for_the_road_under_the_camera():
+    _, road, R, t = scene_and_motion(step_m=1.0)
+    slope = road.copy()
+    slope[:, 1] -= np.tan(np.radians(5.0)) * (slope[:, 2] - 5.0)  # rising 5 degrees ahead
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
+    assert road_step_length_m(project(slope), project(slope @ R.T + t), K, motion, HEIGHT_M) is None
 
 
 def test_no_plane_without_enough_points_below_the_camera():

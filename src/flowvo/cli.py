@@ -274,7 +274,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     for name in ("fx", "fy", "cx", "cy"):
         camera.add_argument(f"--{name}", type=float)
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--method", choices=("flowvo", "cnn", "classical"), default="flowvo",
+    p.add_argument("--method", choices=("flowvo", "flowvo-geometry", "cnn", "classical"), default="flowvo",
                    help="flowvo (default): dense flow + geometry + road-plane scale; cnn: the thesis network "
                         "(--model, default the packaged one); classical: KLT + essential matrix")
     p.add_argument("--model", help="checkpoint for --method cnn (default: the packaged model)")
@@ -401,7 +401,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--calib")
     for name in ("fx", "fy", "cx", "cy"):
         p.add_argument(f"--{name}", type=float)
-    p.add_argument("--methods", nargs="+", choices=("flowvo", "cnn", "classical"),
+    p.add_argument("--methods", nargs="+", choices=("flowvo", "flowvo-geometry", "cnn", "classical"),
                    default=["flowvo", "cnn", "classical"], help="methods in table order (default method first)")
     p.add_argument("--frames", type=FRAME_COUNT, default=200, help="frames per run (at least 2)")
     p.add_argument("--repeat", type=POSITIVE_INT, default=3, help="runs per method; the table shows medians")

@@ -103,6 +103,7 @@ class GeometryFlow:
     motion_next: np.ndarray
     road_prev: np.ndarray
     road_next: np.ndarray
+    current: np.ndarray  # the current working frame, for the network's fallback distance
 
 
 class FlowGeometryStep(_WorkingFrames):
@@ -114,9 +115,14 @@ class FlowGeometryStep(_WorkingFrames):
 
     def __init__(self, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int],
                  flow_method: str = DEFAULT_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
-                 camera_height_m: float = CAMERA_HEIGHT_M) -> None:
+                 camera_height_m: float = CAMERA_HEIGHT_M, fallback: CnnStep | None = None) -> None:
         super().__init__(intrinsics, image_size_hw, working_width)
-        self.label = f"flowvo (dense {flow_method} road flow + geometry)"
+        self.label = f"flowvo (dense {flow_method} road flow + geometry" + (", CNN distance where no road)"
+                                                                           if fallback else ")")
+        if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
+            raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
+        self.fallback = fallback
+        self.fallback_frames = 0
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = camera_height_m
         self.crop = road_crop(self.working_hw, self.K)
@@ -143,7 +149,7 @@ class FlowGeometryStep(_WorkingFrames):
                                             np.ascontiguousarray(current.image[self.crop]))
         road_prev = previous.samples.road_px
         road_next = follow_flow(road_prev - self.crop_origin, road_flow) + self.crop_origin
-        return GeometryFlow(motion_prev, motion_next, road_prev, road_next)
+        return GeometryFlow(motion_prev, motion_next, road_prev, road_next, current.image)
 
     def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
@@ -159,6 +165,10 @@ class FlowGeometryStep(_WorkingFrames):
         if fit is None:  # degenerate: keep the last motion (constant velocity)
             return self.last_motion
         step_m = road_step_length_m(flow.road_prev, flow.road_next, self.K, fit, self.camera_height_m)
+        if step_m is None and self.fallback is not None:  # no trustworthy road: the network's distance
+            network_flow = self.fallback.flow(previous.image, flow.current)
+            step_m = float(np.linalg.norm(self.fallback.motion(times_s, previous.image, network_flow)[:3, 3]))
+            self.fallback_frames += 1
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))

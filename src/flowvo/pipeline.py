@@ -24,7 +24,7 @@ from flowvo.outputs import prepare_output_dir, run_outputs
 from flowvo.sources.base import FrameSource
 from flowvo.trajectory import Trajectory
 
-METHODS = ("flowvo", "cnn", "classical")
+METHODS = ("flowvo", "flowvo-geometry", "cnn", "classical")
 
 
 @dataclass
@@ -96,17 +96,13 @@ def make_step(options: RunOptions, source: FrameSource):
     """The per-frame odometry step of ``options.method`` for this source."""
     from flowvo import odometry_step
 
-    if options.method == "flowvo":
+    if options.method in ("flowvo", "flowvo-geometry"):
+        fallback = cnn_step(options, source) if options.method == "flowvo" else None
         return odometry_step.FlowGeometryStep(source.intrinsics, source.image_size_hw,
-                                              flow_method=options.flow_method or odometry_step.DEFAULT_FLOW_METHOD)
+                                              flow_method=options.flow_method or odometry_step.DEFAULT_FLOW_METHOD,
+                                              fallback=fallback)
     if options.method == "cnn":
-        from flowvo.model.checkpoint import load_model, packaged_model_path
-
-        model, normalization, state = load_model(options.model or packaged_model_path())
-        flow_method = options.flow_method or state.get("train_config", {}).get("flow_method", "dis-medium")
-        trained_hw = state.get("flow_size_hw") or [188, 620]
-        return odometry_step.CnnStep(source.intrinsics, source.image_size_hw, model, normalization, flow_method,
-                                     working_width=int(trained_hw[1]))
+        return cnn_step(options, source, options.flow_method)
     if options.method == "classical":
         steps = None
         if options.classical_scale == "gt":
@@ -115,6 +111,18 @@ def make_step(options: RunOptions, source: FrameSource):
             steps = planar_targets(source.ground_truth.T_world_cam)[:, 0]
         return odometry_step.ClassicalStep(source.intrinsics, steps)
     raise FlowvoError(f"unknown method {options.method!r}; choose one of {', '.join(METHODS)}")
+
+
+def cnn_step(options: RunOptions, source: FrameSource, flow_method: str | None = None):
+    """The thesis network's step (``options.model`` or the packaged model) with the flow it was trained on."""
+    from flowvo import odometry_step
+    from flowvo.model.checkpoint import load_model, packaged_model_path
+
+    model, normalization, state = load_model(options.model or packaged_model_path())
+    flow_method = flow_method or state.get("train_config", {}).get("flow_method", "dis-medium")
+    trained_hw = state.get("flow_size_hw") or [188, 620]
+    return odometry_step.CnnStep(source.intrinsics, source.image_size_hw, model, normalization, flow_method,
+                                 working_width=int(trained_hw[1]))
 
 
 def run(options: RunOptions) -> dict:
@@ -152,6 +160,8 @@ def run(options: RunOptions) -> dict:
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
                             frame_id=options.frame_id, child_frame_id=options.child_frame_id)
         summary["mcap"] = f"{source.name}.mcap"
+    if getattr(step, "fallback", None) is not None:
+        summary["network_distance_steps"] = step.fallback_frames  # steps without a trustworthy road plane
     if options.method == "classical":
         summary["scale_source"] = options.classical_scale
     if source.ground_truth is not None:
