@@ -13,10 +13,10 @@ import json
 import numpy as np
 
 from flowvo.atomic import write_text_atomic
+from flowvo.drive import RunOptions, make_step, open_source
 from flowvo.errors import FlowvoError
-from flowvo.pipeline import RunOptions, make_step, open_source, timing_report
 from flowvo.stages import STAGES, stage_seconds_text
-from flowvo.stream import stream_odometry
+from flowvo.stream import stream_odometry, timing_report
 
 REFERENCE_SECONDS_PER_FRAME = 0.633  # the reference system (2016), published, on a GPU
 

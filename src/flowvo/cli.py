@@ -377,7 +377,7 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from flowvo.bench import benchmark, format_bench_table, write_bench_json
-    from flowvo.pipeline import RunOptions
+    from flowvo.drive import RunOptions
 
     options = RunOptions(out="", data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
                          topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,

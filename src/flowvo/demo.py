@@ -5,9 +5,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from flowvo.drive import RunOptions
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
-from flowvo.pipeline import RunOptions, run
+from flowvo.pipeline import run
 from flowvo.report import write_report
 from flowvo.synth.dataset import synthesize
 
