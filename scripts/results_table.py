@@ -1,6 +1,6 @@
 """Print the README's synthetic results table from the output of scripts/synthetic_kitti_results.sh.
 
-Usage: python scripts/results_table.py OUT_DIR   (OUT_DIR holds learned/NN, classical_gt/NN, classical_height/NN)
+Usage: python scripts/results_table.py OUT_DIR   (OUT_DIR holds METHOD/NN for each method below)
 """
 
 import json
@@ -10,22 +10,22 @@ from pathlib import Path
 from flowvo.evaluation import pooled_summary
 from flowvo.report import REFERENCE_FIGURES, load_run
 
-METHODS = ("learned", "classical_gt", "classical_height")
+METHODS = ("flowvo", "flowvo-geometry", "cnn", "classical", "classical_gt")
 SEQUENCES = ("08", "09", "10")
 
 
 def main(out: Path) -> None:
     runs = {(m, s): load_run(out / m / s) for m in METHODS for s in SEQUENCES}
-    print("| sequence (frames) | flowvo, t_err % / r_err deg/m | classical VO, GT scale "
-          "| classical VO, camera-height scale | reference system, published (real KITTI) |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| sequence (frames) | flowvo (default), t_err % / r_err deg/m | flowvo-geometry | CNN (thesis) "
+          "| classical VO, camera-height scale | classical VO, GT scale | reference system, published (real KITTI) |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
     for s in SEQUENCES:
         cells = []
         for m in METHODS:
             metrics = runs[(m, s)].evaluation.metrics
             cells.append(f"{metrics['t_err_percent']:.2f} / {metrics['r_err_deg_per_m']:.4f}")
         ref = REFERENCE_FIGURES.get(s)
-        frames = runs[("learned", s)].summary["frames"]
+        frames = runs[("flowvo", s)].summary["frames"]
         reference = f"{ref[0]} / {ref[1]}" if ref else "not given"
         print(f"| {s} synthetic ({frames}) | " + " | ".join(cells) + f" | {reference} |")
     weighted, pooled = [], []
@@ -40,7 +40,7 @@ def main(out: Path) -> None:
     avg = REFERENCE_FIGURES["average 08-10"]
     print("| 08-10, frame-weighted | " + " | ".join(weighted) + f" | {avg[0]} / {avg[1]} |")
     print("| 08-10, all segments pooled | " + " | ".join(pooled) + " | |")
-    print(json.dumps({"model": runs[("learned", "08")].summary.get("model")}))
+    print(json.dumps({"labels": {m: runs[(m, "08")].summary["label"] for m in METHODS}}))
 
 
 if __name__ == "__main__":

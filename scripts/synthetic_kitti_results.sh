@@ -1,18 +1,16 @@
 #!/usr/bin/env bash
-# Reproduce the README's synthetic results table: the learned model and the classical baseline on the
-# synthetic replays of KITTI 08-10, and one report with both. Usage:
-#   scripts/synthetic_kitti_results.sh DATA_ROOT MODEL.pt OUT_DIR
+# Reproduce the README's synthetic results table: every method on the synthetic replays of KITTI 08-10,
+# and one report with all of them. Usage:
+#   scripts/synthetic_kitti_results.sh DATA_ROOT OUT_DIR
 set -euo pipefail
-data="$1"; model="$2"; out="$3"
+data="$1"; out="$2"
 runs=()
 for seq in 08 09 10; do
-  flowvo run --data "$data" --sequence "$seq" --model "$model" --out "$out/learned/$seq" -q
-  runs+=("$out/learned/$seq")
-  for scale in gt height; do
-    [ -f "$out/classical_$scale/$seq/run.json" ] || \
-      flowvo run --data "$data" --sequence "$seq" --method classical --scale-from "$scale" \
-        --out "$out/classical_$scale/$seq" -q
-    runs+=("$out/classical_$scale/$seq")
+  for method in flowvo flowvo-geometry cnn classical; do
+    flowvo -q run --data "$data" --sequence "$seq" --method "$method" --out "$out/$method/$seq" --force
+    runs+=("$out/$method/$seq")
   done
+  flowvo -q run --data "$data" --sequence "$seq" --method classical --scale-from gt --out "$out/classical_gt/$seq" --force
+  runs+=("$out/classical_gt/$seq")
 done
-flowvo report "${runs[@]}" --out "$out/report"
+flowvo report "${runs[@]}" --out "$out/report" --force

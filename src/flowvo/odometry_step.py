@@ -51,6 +51,7 @@ STILL_FLOW_PX_AT_620 = 0.5
 DEFAULT_FLOW_METHOD = "dis-medium-fine"
 DEFAULT_WORKING_WIDTH = 620
 MIN_FLOW_SIDE_PX = 32
+FALLBACK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own
 
 
 class OdometryStep(Protocol):
@@ -123,6 +124,7 @@ class FlowGeometryStep(_WorkingFrames):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
         self.fallback = fallback
         self.fallback_frames = 0
+        self.last_road_time_s = -np.inf
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = camera_height_m
         self.crop = road_crop(self.working_hw, self.K)
@@ -165,7 +167,10 @@ class FlowGeometryStep(_WorkingFrames):
         if fit is None:  # degenerate: keep the last motion (constant velocity)
             return self.last_motion
         step_m = road_step_length_m(flow.road_prev, flow.road_next, self.K, fit, self.camera_height_m)
-        if step_m is None and self.fallback is not None:  # no trustworthy road: the network's distance
+        if step_m is not None:
+            self.last_road_time_s = time_s
+        elif self.fallback is not None and time_s - self.last_road_time_s > FALLBACK_AFTER_S:
+            # no trustworthy road for a while: the speed prior alone would drift, the network measures
             network_flow = self.fallback.flow(previous.image, flow.current)
             step_m = float(np.linalg.norm(self.fallback.motion(times_s, previous.image, network_flow)[:3, 3]))
             self.fallback_frames += 1
