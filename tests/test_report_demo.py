@@ -61,7 +61,7 @@ def test_bench_prints_the_timing_table(classical_runs, capsys):
     table = capsys.readouterr().out.splitlines()
     assert table[2].startswith("flowvo (") and "0.633" in table[-2]  # the default method first
     assert table[3].startswith("CNN (") and table[4].startswith("classical VO")
-    stage_cells = {row.split()[0]: row[53:].split()[:5] for row in table[2:5]}  # read flow network geometry chain
+    stage_cells = {row.split()[0]: row[63:].split()[:5] for row in table[2:5]}  # read flow network geometry chain
     assert stage_cells["flowvo"][2] == "-" and stage_cells["CNN"][3] == "-"  # no network / no geometry stage
     assert stage_cells["classical"][2:4] == ["-", "-"]
 
@@ -78,9 +78,10 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "report:" in printed and "synthetic" in printed
     page = (tmp_path / "report" / "index.html").read_text()
-    assert "flowvo (dense dis-medium-fine road flow" in page and "CNN (dis-medium flow + network)" in page
+    assert "flowvo (dis-medium-fine road flow, geometry, network fallback)" in page
+    assert "CNN (dis-medium flow + network)" in page
     assert "classical VO" in page
-    assert re.search(r"flowvo \(dense dis-medium-fine[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary
+    assert re.search(r"flowvo \(dis-medium-fine[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary
     seconds = r"\d+\.\d{4}"
 
     def network_cell(method: str) -> str:  # the timing table's network column for the method's row

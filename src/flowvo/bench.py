@@ -49,14 +49,14 @@ def benchmark(options: RunOptions, methods: list[str], frames: int, repeat: int)
 def format_bench_table(rows: list[dict]) -> str:
     """The timing table with speed-ups over the reference system."""
     names = ("read", "flow", "network", "geometry", "chain", "total")
-    header = f"{'method':52s} " + " ".join(f"{n:>8s}" for n in names) + f" {'fps':>7s} {'vs ref':>7s}"
+    header = f"{'method':62s} " + " ".join(f"{n:>8s}" for n in names) + f" {'fps':>7s} {'vs ref':>7s}"
     lines = [header, "-" * len(header)]
     for row in rows:
         cells = [stage_seconds_text(row["method"], stage, row[f"{stage}_s"]) for stage in STAGES]
-        lines.append(f"{row['label'][:52]:52s} " + " ".join(f"{c:>8s}" for c in cells)
+        lines.append(f"{row['label'][:62]:62s} " + " ".join(f"{c:>8s}" for c in cells)
                      + f" {row['total_s']:8.4f} {row['frames_per_second']:7.1f}"
                      f" {REFERENCE_SECONDS_PER_FRAME / row['total_s']:6.1f}x")
-    lines.append(f"{'reference system (2016), published, GPU':52s} " + " ".join(f"{'':8s}" for _ in STAGES)
+    lines.append(f"{'reference system (2016), published, GPU':62s} " + " ".join(f"{'':8s}" for _ in STAGES)
                  + f" {REFERENCE_SECONDS_PER_FRAME:8.3f} {1 / REFERENCE_SECONDS_PER_FRAME:7.1f} {'1.0x':>7s}")
     lines.append("seconds per frame (stages: means; read overlaps the rest in its own thread; total: wall clock), "
                  "median of repeated streaming runs")

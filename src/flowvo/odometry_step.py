@@ -118,8 +118,7 @@ class FlowGeometryStep(_WorkingFrames):
                  flow_method: str = DEFAULT_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
                  camera_height_m: float = CAMERA_HEIGHT_M, fallback: CnnStep | None = None) -> None:
         super().__init__(intrinsics, image_size_hw, working_width)
-        self.label = f"flowvo (dense {flow_method} road flow + geometry" + (", CNN distance where no road)"
-                                                                           if fallback else ")")
+        self.label = f"flowvo ({flow_method} road flow, geometry" + (", network fallback)" if fallback else ")")
         if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
         self.fallback = fallback
