@@ -55,5 +55,5 @@ def summary_lines(runs: list[dict]) -> list[str]:
             accuracy = f"ATE {metrics['ate_rmse_m']:.2f} m (path under 100 m: no KITTI t_err)"
         else:
             accuracy = "no ground truth"
-        lines.append(f"{summary['label'][:56]:56s} {accuracy}  {summary['frames_per_second']:6.1f} frames/s")
+        lines.append(f"{summary['label'][:62]:62s} {accuracy}  {summary['frames_per_second']:6.1f} frames/s")
     return lines
