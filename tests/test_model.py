@@ -7,7 +7,6 @@ from flowvo.errors import FlowvoError
 from flowvo.model.checkpoint import check_compatible, load_model, save_checkpoint
 from flowvo.model.config import ModelConfig, TrainConfig
 from flowvo.model.data import Normalization, OdometryDataset, mirror_input, resize_flow
-from flowvo.model.inference import temporal_median
 from flowvo.model.network import OdometryNet, flops_per_frame, parameter_count
 from flowvo.projection import flow_from_depth
 
@@ -107,11 +106,6 @@ def test_tiny_network_overfits_twenty_samples():
         loss.backward()
         optimizer.step()
     assert loss.item() < 0.02  # from ~1.0 (measured 0.009)
-
-
-def test_temporal_median_is_causal():
-    values = np.array([[1.0], [5.0], [2.0], [100.0], [3.0]])
-    np.testing.assert_allclose(temporal_median(values, 3)[:, 0], [1.0, 3.0, 2.0, 5.0, 3.0])
 
 
 def test_checkpoint_of_other_architecture_is_refused(tmp_path):

@@ -110,7 +110,8 @@ class GeometryFlow:
 class FlowGeometryStep(_WorkingFrames):
     """The default method: tracked points give the essential matrix (rotation, direction); the dense
     flow of the road ahead gives the road plane and with the camera height the metric step; a
-    smooth-speed prior filters the steps."""
+    smooth-speed prior filters the steps. With a ``fallback`` network, its distance is the measurement
+    once no trustworthy road plane has been seen for ``FALLBACK_AFTER_S``."""
 
     motion_stage = "geometry"
 
@@ -131,7 +132,7 @@ class FlowGeometryStep(_WorkingFrames):
         if min(crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
                               f"method: its road crop is {crop_hw[1]}x{crop_hw[0]} px, the flow needs at least "
-                              f"{MIN_FLOW_SIDE_PX} px a side (frames of 240 px height or more work)")
+                              f"{MIN_FLOW_SIDE_PX} px a side (frames at least 90 px high and 64 px wide work)")
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self.still_flow_px = STILL_FLOW_PX_AT_620 * self.working_hw[1] / 620.0
         self.threshold_px = 0.25 * self.working_hw[1] / 620.0

@@ -1,4 +1,4 @@
-"""Inference: network outputs in batches, optional temporal median, chaining into poses.
+"""Inference in batches (training validation) and chaining into poses.
 
 Every path runs :class:`flowvo.model.deployable.DeployableOdometry`, the one rule from resized flow to
 physical motion (normalisation, symmetric mirrored pass, de-normalisation).
@@ -38,13 +38,6 @@ def predict_targets(model: OdometryNet, normalization: Normalization, flows: tor
         batch = torch.stack([stacked_input(flows, p, stack) for p in pairs]).to(device)
         outputs.append(deployable.predict(batch))
     return np.concatenate(outputs)
-
-
-def temporal_median(targets: np.ndarray, window: int) -> np.ndarray:
-    """Causal median over the last ``window`` predictions, per component (window 1 = unchanged)."""
-    if window <= 1:
-        return targets
-    return np.stack([np.median(targets[max(0, i - window + 1) : i + 1], axis=0) for i in range(len(targets))])
 
 
 def chain_motions(targets: np.ndarray, head: str) -> np.ndarray:

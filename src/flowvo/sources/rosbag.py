@@ -9,7 +9,6 @@ a bag never has to fit in memory. Image decoding rules: ``flowvo.ros.images``; C
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterator
 from contextlib import closing, contextmanager
 from pathlib import Path
@@ -33,7 +32,7 @@ from flowvo.ros.images import (
     image_message_to_grey,
     raw_image_size_hw,
 )
-from flowvo.sources.base import CameraIntrinsics
+from flowvo.sources.base import CameraIntrinsics, safe_source_name
 from flowvo.sources.intrinsics import check_intrinsics
 from flowvo.trajectory import Trajectory
 
@@ -99,7 +98,8 @@ def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None 
             raise FlowvoError("no camera intrinsics: give --camera-info-topic (CameraInfo topics in the bag: "
                               f"{_list_topics(reader, (CAMERA_INFO_TYPE,))}), --calib or --fx/--fy/--cx/--cy", bag)
     check_intrinsics(intrinsics, image_size_hw, f"{bag}: {camera_info_topic}" if camera_info_topic else str(bag))
-    return BagSource(bag, topic, message_type, _safe_name(bag), intrinsics, image_size_hw,
+    name = safe_source_name(bag.name if bag.is_dir() else bag.stem, "bag")  # a ROS 2 bag is a folder
+    return BagSource(bag, topic, message_type, name, intrinsics, image_size_hw,
                      np.asarray(stamps_ns, dtype=np.int64) / 1e9)
 
 
@@ -113,12 +113,6 @@ def _check_bag_path(path: Path) -> Path:
         raise FlowvoError("not a ROS bag: expected a ROS 1 .bag file, a ROS 2 bag folder, or an .mcap or .db3 file",
                           path)
     return path
-
-
-def _safe_name(bag: Path) -> str:
-    """The bag's file stem (folder name for a ROS 2 folder) with characters outside [A-Za-z0-9_-] as '_'."""
-    stem = bag.name if bag.is_dir() else bag.stem
-    return re.sub(r"[^A-Za-z0-9_-]", "_", stem) or "bag"
 
 
 def _one_line(error: BaseException) -> str:
