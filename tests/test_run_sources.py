@@ -88,3 +88,11 @@ def test_bench_json_rows_start_with_the_default_method(drive, tmp_path, capsys):
     for row in rows:
         assert row["frames_per_second"] > 0 and row["label"]
         assert {"image_read_s", "flow_s", "network_s", "geometry_s", "chaining_s", "total_s"} <= set(row)
+
+
+def test_bad_mcap_frame_ids_are_refused_before_the_run(drive, tmp_path, capsys):
+    root = drive[0]
+    assert main(["run", "--data", str(root), "--sequence", "00", "--out", str(tmp_path / "o"), "--mcap",
+                 "--frame-id", "/odom"]) == 2
+    assert "frame id '/odom'" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

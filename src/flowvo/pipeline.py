@@ -31,6 +31,12 @@ def run(options: RunOptions) -> dict:
         raise FlowvoError(f"has {source.frame_count} frame(s); odometry needs at least 2", source.name)
     step = make_step(options, source)
     write_mcap = options.mcap or bool(options.bag)
+    if write_mcap:
+        from flowvo.ros.extra import require_ros_extra
+        from flowvo.ros.odometry_mcap import check_names
+
+        require_ros_extra("writing MCAP odometry")
+        check_names(options.frame_id, options.child_frame_id)
     produces = run_outputs(source.name) + ([f"{source.name}.mcap"] if write_mcap else [])
     out = prepare_output_dir(options.out, produces, options.force, dataset=options.data)
     result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name)

@@ -50,7 +50,7 @@ def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam:
     """
     require_ros_extra("writing MCAP odometry")
     stamps_ns = _stamps_ns(timestamps_s, T_world_cam)
-    _check_names(frame_id, child_frame_id, (odometry_topic, tf_topic, path_topic))
+    check_names(frame_id, child_frame_id, (odometry_topic, tf_topic, path_topic))
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -91,7 +91,10 @@ def _stamps_ns(timestamps_s: np.ndarray, T_world_cam: np.ndarray) -> list[int]:
     return [int(ns) for ns in np.round(stamps * 1e9).astype(np.int64)]
 
 
-def _check_names(frame_id: str, child_frame_id: str, topics: tuple[str, ...]) -> None:
+def check_names(frame_id: str, child_frame_id: str,
+                topics: tuple[str, ...] = (DEFAULT_ODOMETRY_TOPIC, DEFAULT_TF_TOPIC, DEFAULT_PATH_TOPIC)) -> None:
+    """Refuse frame ids tf2 refuses (empty, leading '/', parent == child) and topics that are not distinct
+    absolute ROS names (callers check before a long run, so nothing is computed for nothing)."""
     for name in (frame_id, child_frame_id):
         if not name or name.startswith("/"):
             raise FlowvoError(f"frame id {name!r} must be non-empty without a leading '/' (tf2 refuses it)")
