@@ -275,10 +275,13 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
         camera.add_argument(f"--{name}", type=float)
     p.add_argument("--out", required=True, help="output folder")
     p.add_argument("--method", choices=("flowvo", "flowvo-geometry", "cnn", "classical"), default="flowvo",
-                   help="flowvo (default): dense flow + geometry + road-plane scale; cnn: the thesis network "
-                        "(--model, default the packaged one); classical: KLT + essential matrix")
+                   help="flowvo (default): tracked points + dense road flow, road-plane scale from the 1.65 m "
+                        "camera height, the packaged network where no road is seen; flowvo-geometry: the same "
+                        "without the network; cnn: the thesis network (--model, default the packaged one); "
+                        "classical: KLT + essential matrix")
     p.add_argument("--model", help="checkpoint for --method cnn (default: the packaged model)")
-    p.add_argument("--flow-method", help="flow method (default dis-medium; cnn: the model's)")
+    p.add_argument("--flow-method", help="flow method (flowvo: of the road crop, default dis-medium-fine; cnn: "
+                                         "default the model's)")
     p.add_argument("--scale-from", choices=("height", "gt"), default="height",
                    help="classical method's metric scale: the 1.65 m camera height, or GT step lengths (labelled)")
     p.add_argument("--max-frames", type=FRAME_COUNT, help="stop after this many frames")
