@@ -7,8 +7,9 @@ from flowvo.flow_geometry import (
     EssentialMotion,
     essential_motion,
     fit_road_plane,
+    road_grid,
     road_step_length_m,
-    sample_points,
+    textured_points,
     triangulate,
 )
 from flowvo.geometry import so3_exp
@@ -82,13 +83,16 @@ def test_no_plane_without_enough_points_below_the_camera():
     assert fit_road_plane(np.array([[0.0, -1.0, 5.0]] * 50)) is None
 
 
-def test_samples_are_textured_points_and_a_road_band_inside_the_frame():
-    rng = np.random.default_rng(0)
+def test_textured_points_pick_the_strongest_gradient_of_their_cells():
     image = np.zeros((188, 620), np.uint8)
-    image[::2, ::3] = rng.integers(0, 255, image[::2, ::3].shape)
-    samples = sample_points(image, K, motion_points=200)
-    assert len(samples.motion_px) == 200
-    assert samples.motion_px.min() >= 0 and (samples.motion_px < [620, 188]).all()
-    road_rows = samples.road_px[:, 1]
-    assert road_rows.min() >= K[1, 2] + 0.1 * 188 - 1 and road_rows.max() <= K[1, 2] + 0.35 * 188
-    assert np.abs(samples.road_px[:, 0] - K[0, 2]).max() <= 0.2 * 620
+    image[40:44, 100:104] = 255  # one bright square: its corners are the strongest gradients
+    image[120:, :] = np.random.default_rng(0).integers(0, 40, (68, 620))  # weak texture below
+    points = textured_points(image, count=200)
+    assert len(points) == 200 and points.min() >= 0 and (points < [620, 188]).all()
+    assert ((np.abs(points[:4, 0] - 101.5) <= 3) & (np.abs(points[:4, 1] - 41.5) <= 3)).all()
+
+
+def test_road_grid_lies_in_the_band_ahead_of_the_camera():
+    road = road_grid((188, 620), K)
+    assert road[:, 1].min() >= K[1, 2] + 0.1 * 188 - 1 and road[:, 1].max() <= K[1, 2] + 0.35 * 188
+    assert np.abs(road[:, 0] - K[0, 2]).max() <= 0.2 * 620

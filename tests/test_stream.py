@@ -12,6 +12,7 @@ class CountingStep:
 
     label = "test step"
     motion_stage = "geometry"
+    opencv_threads = None
 
     def __init__(self) -> None:
         self.calls = 0

@@ -15,27 +15,10 @@ import cv2
 import numpy as np
 
 
-@dataclass(frozen=True)
-class FlowSamples:
-    """Where the flow is read: texture-rich points for the motion, a road band for the scale.
-
-    ``motion_px`` (M, 2) and ``road_px`` (R, 2) are pixel coordinates (x right, y down) in the flow frame.
-    """
-
-    motion_px: np.ndarray
-    road_px: np.ndarray
-
-
-def sample_points(image: np.ndarray, K: np.ndarray, motion_points: int = 600, cell_px: int = 8,
-                  road_rows: tuple[float, float] = (0.10, 0.35), road_half_width: float = 0.2,
-                  road_step_px: int = 4) -> FlowSamples:
-    """Sample positions in ``image`` (H, W) uint8 at the flow's resolution.
-
-    Motion points: the strongest-gradient pixel of each ``cell_px`` cell (textured pixels have reliable
-    flow), the ``motion_points`` strongest cells kept. Road band: a regular grid of rows
-    ``cy + road_rows * H`` within ``road_half_width * W`` of the principal point column, where the road
-    ahead usually is (rows far below fail: the road there moves and stretches too much between frames).
-    """
+def textured_points(image: np.ndarray, count: int = 600, cell_px: int = 8) -> np.ndarray:
+    """Where to track the motion: the strongest-gradient pixel of each ``cell_px`` cell of ``image``
+    (H, W) uint8 (textured pixels track reliably), the ``count`` strongest cells kept; (M, 2) float32
+    pixels, x right, y down."""
     h, w = image.shape
     gx = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3)
@@ -45,23 +28,30 @@ def sample_points(image: np.ndarray, K: np.ndarray, motion_points: int = 600, ce
     cells = cells.reshape(rows, cell_px, cols, cell_px).transpose(0, 2, 1, 3).reshape(rows, cols, -1)
     best = cells.argmax(axis=2)
     strength = np.take_along_axis(cells, best[..., None], axis=2)[..., 0]
-    order = np.argsort(strength, axis=None)[::-1][:motion_points]
+    order = np.argsort(strength, axis=None)[::-1][:count]
     r, c = np.unravel_index(order, strength.shape)
     b = best[r, c]
-    motion = np.stack([4 + c * cell_px + b % cell_px, 4 + r * cell_px + b // cell_px], axis=1).astype(np.float32)
+    return np.stack([4 + c * cell_px + b % cell_px, 4 + r * cell_px + b // cell_px], axis=1).astype(np.float32)
+
+
+def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.10, 0.35),
+              half_width: float = 0.2, step_px: int = 4) -> np.ndarray:
+    """Where to read the road's flow: a regular grid (R, 2) float32 of rows ``cy + rows * H`` within
+    ``half_width * W`` of the principal point column, where the road ahead usually is (rows far below
+    fail: the road there moves and stretches too much between frames)."""
+    h, w = image_hw
     cx, cy = K[0, 2], K[1, 2]
-    top, bottom = int(cy + road_rows[0] * h), min(h - 4, int(cy + road_rows[1] * h))
-    left, right = max(4, int(cx - road_half_width * w)), min(w - 4, int(cx + road_half_width * w))
-    ys, xs = np.mgrid[top:bottom:road_step_px, left:right:road_step_px]
-    road = np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float32)
-    return FlowSamples(motion, road)
+    top, bottom = int(cy + rows[0] * h), min(h - 4, int(cy + rows[1] * h))
+    left, right = max(4, int(cx - half_width * w)), min(w - 4, int(cx + half_width * w))
+    ys, xs = np.mgrid[top:bottom:step_px, left:right:step_px]
+    return np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float32)
 
 
 def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.05, 0.42),
               half_width: float = 0.25) -> tuple[slice, slice]:
-    """The part of the frame whose dense flow the road scale needs: the road band of :func:`sample_points`
-    with margins (road points move down and outwards between frames). Rows ``cy + rows * H``, columns
-    within ``half_width * W`` of the principal point."""
+    """The part of the frame whose dense flow the road scale needs: the :func:`road_grid` band with margins
+    (road points move down and outwards between frames). Rows ``cy + rows * H``, columns within
+    ``half_width * W`` of the principal point."""
     h, w = image_hw
     cx, cy = K[0, 2], K[1, 2]
     return (slice(int(cy + rows[0] * h), min(h, int(cy + rows[1] * h))),

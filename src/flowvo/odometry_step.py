@@ -31,13 +31,13 @@ from flowvo.classical_vo import CAMERA_HEIGHT_M, ClassicalTracker
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
 from flowvo.flow_geometry import (
-    FlowSamples,
     essential_motion,
     follow_flow,
     road_crop,
+    road_grid,
     road_step_length_m,
-    sample_points,
     se3_next_prev,
+    textured_points,
     track_points,
 )
 from flowvo.geometry import chain_planar, chain_se3, invert_se3, se3_from_targets
@@ -59,6 +59,7 @@ class OdometryStep(Protocol):
 
     label: str
     motion_stage: str  # the stage name ``motion`` is timed as: "geometry" or "network"
+    opencv_threads: int | None  # OpenCV threads per call while streaming (None: OpenCV's default)
 
     def prepare(self, image: np.ndarray) -> np.ndarray: ...
 
@@ -87,12 +88,12 @@ class _WorkingFrames:
 
 @dataclass(frozen=True)
 class GeometryFrame:
-    """A working frame of the default method with its sample points and the tracks of the previous
+    """A working frame of the default method with its textured points and the tracks of the previous
     frame's textured points into it (computed once per frame, in order, in the reader thread; empty for
     the first frame)."""
 
     image: np.ndarray
-    samples: FlowSamples
+    textured_px: np.ndarray
     tracked_prev: np.ndarray
     tracked_next: np.ndarray
 
@@ -117,6 +118,7 @@ class FlowGeometryStep(_WorkingFrames):
     once no trustworthy road plane has been seen for ``FALLBACK_AFTER_S``."""
 
     motion_stage = "geometry"
+    opencv_threads: int | None = 1  # its stages balance across the stream's two threads
 
     def __init__(self, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int],
                  flow_method: str = DEFAULT_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
@@ -131,6 +133,7 @@ class FlowGeometryStep(_WorkingFrames):
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = camera_height_m
         self.crop = road_crop(self.working_hw, self.K)
+        self.road_px = road_grid(self.working_hw, self.K)
         crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
         if min(crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
@@ -144,13 +147,13 @@ class FlowGeometryStep(_WorkingFrames):
         self._previous: GeometryFrame | None = None
 
     def prepare(self, image: np.ndarray) -> GeometryFrame:
-        """The working frame, its sample points and the tracks from the previous frame (tracking here
+        """The working frame, its textured points and the tracks from the previous frame (tracking here
         balances the reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07)."""
         working = super().prepare(image)
         tracked = (np.zeros((0, 2), np.float32),) * 2
         if self._previous is not None:
-            tracked = track_points(self._previous.image, working, self._previous.samples.motion_px)
-        self._previous = GeometryFrame(working, sample_points(working, self.K), *tracked)
+            tracked = track_points(self._previous.image, working, self._previous.textured_px)
+        self._previous = GeometryFrame(working, textured_points(working), *tracked)
         return self._previous
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
@@ -158,9 +161,8 @@ class FlowGeometryStep(_WorkingFrames):
         motion_prev, motion_next = current.tracked_prev, current.tracked_next
         road_flow = self.estimator.estimate(np.ascontiguousarray(previous.image[self.crop]),
                                             np.ascontiguousarray(current.image[self.crop]))
-        road_prev = previous.samples.road_px
-        road_next = follow_flow(road_prev - self.crop_origin, road_flow) + self.crop_origin
-        return GeometryFlow(motion_prev, motion_next, road_prev, road_next, current.image)
+        road_next = follow_flow(self.road_px - self.crop_origin, road_flow) + self.crop_origin
+        return GeometryFlow(motion_prev, motion_next, self.road_px, road_next, current.image)
 
     def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
@@ -193,6 +195,7 @@ class CnnStep(_WorkingFrames):
     """The thesis method: a network regresses the motion from the flow field (symmetric inference)."""
 
     motion_stage = "network"
+    opencv_threads: int | None = None
 
     def __init__(self, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int], model: OdometryNet,
                  normalization: Normalization, flow_method: str, working_width: int) -> None:
@@ -227,6 +230,7 @@ class ClassicalStep:
     ground-truth step lengths, labelled so, when ``gt_step_lengths_m`` is given)."""
 
     motion_stage = "geometry"
+    opencv_threads: int | None = None
 
     def __init__(self, intrinsics: CameraIntrinsics, gt_step_lengths_m: np.ndarray | None = None) -> None:
         self.tracker = ClassicalTracker(intrinsics.K, gt_step_lengths_m)

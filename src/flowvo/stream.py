@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 from threadpoolctl import threadpool_limits
 
@@ -96,47 +97,53 @@ def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometrySt
                 return
             count, last_time_s = count + 1, time_s
 
-    def estimate_flow(put: Callable[[object], bool]) -> None:
+    def estimate_motion(put: Callable[[object], bool]) -> None:
         previous, previous_time_s = None, None
         for time_s, prepared, read_s in reader:
-            start = time.perf_counter()
-            flow = None if previous is None else step.flow(previous, prepared)
-            if not put(((previous_time_s, time_s), previous, flow, read_s, time.perf_counter() - start)):
+            seconds, motion = {"image_read": read_s}, None
+            if previous is not None:
+                start = time.perf_counter()
+                flow = step.flow(previous, prepared)
+                middle = time.perf_counter()
+                motion = step.motion((previous_time_s, time_s), previous, flow)
+                seconds.update({"flow": middle - start, step.motion_stage: time.perf_counter() - middle})
+            if not put((time_s, motion, seconds)):
                 return
             previous, previous_time_s = prepared, time_s
 
     # One BLAS thread: OpenBLAS's idle threads spin after each small matrix product and slowed the flow
-    # stage 1.5x (measured on two cores: 56 -> 85 frames/s end to end on real KITTI frames).
-    with threadpool_limits(limits=1, user_api="blas"):
-        wall_start = time.perf_counter()
-        reader = _Stage(read)
-        flows = _Stage(estimate_flow)
-        return _consume(flows, reader, step, total, label, wall_start)
+    # stage 1.5x (56 -> 85 frames/s on real KITTI frames). OpenCV's pool as the step asks: a step whose
+    # stages balance across the two threads runs faster with one OpenCV thread per call (default method:
+    # 99 -> 101-102 frames/s), one dominated by a single big flow call runs slower (cnn 76 -> 64).
+    opencv_threads = cv2.getNumThreads()
+    if step.opencv_threads is not None:
+        cv2.setNumThreads(step.opencv_threads)
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            wall_start = time.perf_counter()
+            reader = _Stage(read)
+            motions = _Stage(estimate_motion)
+            return _chain(motions, reader, total, label, wall_start)
+    finally:
+        cv2.setNumThreads(opencv_threads)
 
 
-def _consume(flows: _Stage, reader: _Stage, step: OdometryStep, total: int | None, label: str,
-             wall_start: float) -> StreamResult:
-    """Turn the flows into motions in frame order and chain them (the caller's thread)."""
+def _chain(motions: _Stage, reader: _Stage, total: int | None, label: str, wall_start: float) -> StreamResult:
+    """Chain the motions into poses in frame order (the caller's thread)."""
     seconds = dict.fromkeys(STAGES, 0.0)
     poses: list[np.ndarray] = []
     times: list[float] = []
     try:
-        for times_s, previous, flow, read_s, flow_s in progress(flows, label, total, "frame"):
-            seconds["image_read"] += read_s
-            if previous is None:
-                poses.append(np.eye(4))
-            else:
-                seconds["flow"] += flow_s
-                start = time.perf_counter()
-                motion = step.motion(times_s, previous, flow)
-                middle = time.perf_counter()
-                poses.append(poses[-1] @ motion)
-                seconds[step.motion_stage] += middle - start
-                seconds["chaining"] += time.perf_counter() - middle
-            times.append(times_s[1])
+        for time_s, motion, stage_seconds in progress(motions, label, total, "frame"):
+            start = time.perf_counter()
+            poses.append(np.eye(4) if motion is None else poses[-1] @ motion)
+            seconds["chaining"] += time.perf_counter() - start
+            for stage, value in stage_seconds.items():
+                seconds[stage] += value
+            times.append(time_s)
     finally:
         reader.cancel()
-        flows.cancel()
+        motions.cancel()
     if not poses:
         raise FlowvoError("the drive has no frames")
     return StreamResult(np.stack(poses), np.asarray(times), seconds, time.perf_counter() - wall_start)
