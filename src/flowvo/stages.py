@@ -7,7 +7,7 @@ METHOD_STAGES = {
     "flowvo": ("image_read", "flow", "geometry", "chaining"),  # its rare network fallback counts as geometry
     "flowvo-geometry": ("image_read", "flow", "geometry", "chaining"),
     "cnn": ("image_read", "flow", "network", "chaining"),
-    "classical": ("image_read", "flow", "chaining"),
+    "classical": ("image_read", "flow", "geometry", "chaining"),
 }
 
 
