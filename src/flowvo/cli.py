@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -446,6 +447,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:  # every output is written atomically: finished chunks, frames, epochs remain
         print(f"flowvo {args.command}: interrupted (resumable state kept)", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader of stdout went away (`flowvo eval ... | head`): stop quietly
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     except OSError as error:  # permission denied, read-only, disk full, a file where a folder should be
         where = f"{error.filename}: " if error.filename else ""
         print(f"flowvo {args.command}: error: {where}{error.strerror or error}", file=sys.stderr)
