@@ -49,7 +49,7 @@ def tiny_checkpoint(path, head: str, stack: int):
     return path
 
 
-def test_deployable_matches_the_old_predict_batch_math_on_the_packaged_model(packaged):
+def test_deployable_matches_the_normalise_mirror_average_rule_on_the_packaged_model(packaged):
     model, _ = packaged
     network, normalization, _ = load_model(packaged_model_path())
     flows_px = random_flows_px(model, 4)

@@ -135,19 +135,23 @@ def test_train_config_round_trips_through_yaml_and_rejects_unknown_keys(tmp_path
 
 
 def test_symmetric_inference_cancels_a_constant_heading_offset():
-    from flowvo.model.inference import predict_batch
+    from flowvo.model.deployable import DeployableOdometry
 
     torch.manual_seed(1)
     model = OdometryNet(ModelConfig(width=0.125, input_hw=(32, 96), fc_units=64))
     normalization = Normalization((1.0, 0.0), (0.5, 0.02), 2.0)
-    inputs = torch.randn(6, 2, 32, 96)
-    before = predict_batch(model, normalization, inputs)
+    inputs = torch.randn(6, 2, 32, 96) * normalization.flow_std_px  # flow in pixels
+
+    def predict(flow_px, symmetric=True):
+        return DeployableOdometry(model, normalization, symmetric).predict(flow_px)
+
+    before = predict(inputs)
     with torch.no_grad():
         model.head.bias[1] += 3.0  # a constant heading offset of 3 std = 0.06 rad
-    after = predict_batch(model, normalization, inputs)
-    plain = predict_batch(model, normalization, inputs, symmetric=False)
+    after = predict(inputs)
+    plain = predict(inputs, symmetric=False)
     np.testing.assert_allclose(after[:, 1], before[:, 1], atol=1e-6)
     assert np.abs(plain[:, 1] - after[:, 1]).min() > 0.05
     # a mirrored input gives the mirrored motion exactly
-    mirrored = predict_batch(model, normalization, torch.stack([mirror_input(x) for x in inputs]))
+    mirrored = predict(torch.stack([mirror_input(x) for x in inputs]))
     np.testing.assert_allclose(mirrored, g.mirror_targets(after, "planar"), atol=1e-6)

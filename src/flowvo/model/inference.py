@@ -15,17 +15,6 @@ from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.network import OdometryNet
 
 
-def predict_batch(model: OdometryNet, normalization: Normalization, inputs: torch.Tensor,
-                  symmetric: bool = True) -> np.ndarray:
-    """Motions (B, D) float64 in physical units (m, rad) of normalised network inputs (B, 2K, h, w), that
-    is flow in pixels of the network input divided by ``normalization.flow_std_px``.
-
-    ``symmetric``: average with the mirrored pass, as :class:`DeployableOdometry` explains.
-    """
-    deployable = DeployableOdometry(model, normalization, symmetric)
-    return deployable.predict(inputs * normalization.flow_std_px)
-
-
 def predict_targets(model: OdometryNet, normalization: Normalization, flows: torch.Tensor, stack: int,
                     device: str = "cpu", batch_size: int = 256, symmetric: bool = True) -> np.ndarray:
     """Motions (N, D) float64 in physical units (m, rad) of every pair of ``flows`` (N, 2, h, w), pixels of
