@@ -101,26 +101,31 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
     if inliers.sum() < min_inliers:
         return None
     R_a, R_b, t = cv2.decomposeEssentialMat(E)
+    rays_prev, rays_next = _rays(points_prev[inliers], K), _rays(points_next[inliers], K)
     best, best_count = None, -1
     for R, t_dir in ((R_a, t[:, 0]), (R_a, -t[:, 0]), (R_b, t[:, 0]), (R_b, -t[:, 0])):
         candidate = EssentialMotion(R, t_dir / np.linalg.norm(t_dir), inliers)
-        depth_prev, depth_next = _depths(points_prev[inliers], points_next[inliers], K, candidate)
+        depth_prev, depth_next = _depths(rays_prev, rays_next, candidate)
         count = int(((depth_prev > 0) & (depth_next > 0)).sum())
         if count > best_count:
             best, best_count = candidate, count
     return best if best_count >= min_inliers else None
 
 
-def _depths(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
+def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:
+    """Viewing rays (N, 3) with z = 1 of pixels (N, 2)."""
+    return np.c_[points_px, np.ones(len(points_px))] @ np.linalg.inv(K).T
+
+
+def _depths(rays_prev: np.ndarray, rays_next: np.ndarray, motion: EssentialMotion
             ) -> tuple[np.ndarray, np.ndarray]:
-    """Depths along the rays of both cameras (midpoint method), in units of the step length.
+    """Depths along the rays (N, 3) of both cameras (midpoint method), in units of the step length.
 
     With rays ``u = R r1`` and ``v = r2`` (second camera's frame) and ``X2 = R X1 + t``, the depths
     ``l1, l2`` minimise ``|l1 u + t - l2 v|^2``: a 2x2 linear system per point, solved in closed form.
     """
-    K_inv = np.linalg.inv(K)
-    u = (np.c_[points_prev, np.ones(len(points_prev))] @ K_inv.T) @ motion.R.T
-    v = np.c_[points_next, np.ones(len(points_next))] @ K_inv.T
+    u = rays_prev @ motion.R.T
+    v = rays_next
     t = motion.t_dir
     uu, vv, uv = (np.einsum("ij,ij->i", a, b) for a, b in ((u, u), (v, v), (u, v)))
     ut, vt = u @ t, v @ t
@@ -131,8 +136,9 @@ def _depths(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, mot
 def triangulate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
                 ) -> np.ndarray:
     """3-D points (N, 3) in the first camera's frame, in units of the step length (midpoint method)."""
-    depth_prev, _ = _depths(points_prev, points_next, K, motion)
-    return (np.c_[points_prev, np.ones(len(points_prev))] @ np.linalg.inv(K).T) * depth_prev[:, None]
+    rays_prev = _rays(points_prev, K)
+    depth_prev, _ = _depths(rays_prev, _rays(points_next, K), motion)
+    return rays_prev * depth_prev[:, None]
 
 
 @dataclass(frozen=True)
