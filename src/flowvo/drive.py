@@ -35,6 +35,9 @@ class RunOptions:
     fy: float | None = None
     cx: float | None = None
     cy: float | None = None
+    distortion: tuple[float, ...] | None = None  # lens distortion coefficients (``distortion_model``'s order)
+    distortion_model: str | None = None  # plumb_bob (default for --dist), rational_polynomial, equidistant
+    camera_height_m: float | None = None  # above the road; None: the calibration's, else KITTI's 1.65 m
     method: str = "flowvo"
     model: str | None = None
     flow_method: str | None = None
