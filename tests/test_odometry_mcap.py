@@ -17,9 +17,9 @@ pytest.importorskip("mcap")
 
 from ros_bags import BagSpec, write_bag  # noqa: E402
 
+from flowvo.camera import CameraIntrinsics  # noqa: E402
 from flowvo.ros import odometry_mcap  # noqa: E402
 from flowvo.ros.odometry_mcap import write_odometry_mcap  # noqa: E402
-from flowvo.sources.base import CameraIntrinsics  # noqa: E402
 from flowvo.sources.rosbag import open_bag_source  # noqa: E402
 
 DT_S = 0.1

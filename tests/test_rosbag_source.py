@@ -14,12 +14,12 @@ pytest.importorskip("rosbags")
 
 from ros_bags import KINDS, BagSpec, write_bag  # noqa: E402
 
+from flowvo.camera import CameraIntrinsics  # noqa: E402
 from flowvo.errors import FlowvoError  # noqa: E402
 from flowvo.kitti.sequence import KittiSequence  # noqa: E402
 from flowvo.ros import extra  # noqa: E402
 from flowvo.ros.camera_info import CameraInfoError, camera_info_intrinsics, is_rectified_topic  # noqa: E402
 from flowvo.ros.images import ImageMessageError, compressed_image_to_grey, raw_image_to_grey  # noqa: E402
-from flowvo.sources.base import CameraIntrinsics  # noqa: E402
 from flowvo.sources.rosbag import open_bag_source  # noqa: E402
 from flowvo.synth.dataset import synthesize  # noqa: E402
 

@@ -4,9 +4,9 @@ import cv2
 import numpy as np
 import pytest
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.errors import FlowvoError
 from flowvo.sources import video as video_module
-from flowvo.sources.base import CameraIntrinsics
 from flowvo.sources.video import next_timestamp_s, open_video_source
 
 FPS = 12.5

@@ -27,6 +27,7 @@ import cv2
 import numpy as np
 import torch
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.classical_vo import CAMERA_HEIGHT_M, ClassicalTracker
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
@@ -44,7 +45,6 @@ from flowvo.geometry import chain_planar, chain_se3, invert_se3, se3_from_target
 from flowvo.model.data import Normalization, resize_flow
 from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.network import OdometryNet
-from flowvo.sources.base import CameraIntrinsics
 from flowvo.speed_prior import SpeedPrior
 
 STILL_FLOW_PX_AT_620 = 0.5

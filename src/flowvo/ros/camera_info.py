@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from flowvo.sources.base import CameraIntrinsics
+from flowvo.camera import CameraIntrinsics
 
 CAMERA_INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 

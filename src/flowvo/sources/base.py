@@ -8,40 +8,12 @@ from __future__ import annotations
 
 import re
 from collections.abc import Iterator
-from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.trajectory import Trajectory
-
-
-@dataclass(frozen=True)
-class CameraIntrinsics:
-    """Pinhole intrinsics in pixels: focal lengths ``fx``, ``fy`` and principal point ``cx``, ``cy``."""
-
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-
-    @property
-    def K(self) -> np.ndarray:
-        """The 3x3 camera matrix."""
-        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
-
-    @classmethod
-    def from_matrix(cls, K: np.ndarray) -> CameraIntrinsics:
-        """From a 3x3 (or the left 3x3 of a 3x4 projection) matrix."""
-        return cls(float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]))
-
-    def scaled(self, scale_x: float, scale_y: float) -> CameraIntrinsics:
-        """Intrinsics of the image resized by ``scale_x`` (width) and ``scale_y`` (height).
-
-        Pixel centres map as ``x' = (x + 0.5) * s - 0.5``, as cv2.resize samples them.
-        """
-        return CameraIntrinsics(self.fx * scale_x, self.fy * scale_y,
-                                (self.cx + 0.5) * scale_x - 0.5, (self.cy + 0.5) * scale_y - 0.5)
 
 
 class FrameSource(Protocol):

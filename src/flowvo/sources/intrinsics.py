@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import math
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.errors import FlowvoError
 from flowvo.kitti.calib import read_calibration
-from flowvo.sources.base import CameraIntrinsics
 
 
 def intrinsics_from_options(calib: str | None, fx: float | None, fy: float | None, cx: float | None,

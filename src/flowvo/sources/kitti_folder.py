@@ -7,8 +7,8 @@ from functools import cached_property
 
 import numpy as np
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.kitti.sequence import KittiSequence
-from flowvo.sources.base import CameraIntrinsics
 from flowvo.trajectory import Trajectory
 
 

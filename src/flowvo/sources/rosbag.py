@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.errors import FlowvoError
 from flowvo.ros.camera_info import (
     CAMERA_INFO_TYPE,
@@ -32,7 +33,7 @@ from flowvo.ros.images import (
     image_message_to_grey,
     raw_image_size_hw,
 )
-from flowvo.sources.base import CameraIntrinsics, safe_source_name
+from flowvo.sources.base import safe_source_name
 from flowvo.sources.intrinsics import check_intrinsics
 from flowvo.trajectory import Trajectory
 

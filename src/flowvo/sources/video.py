@@ -27,8 +27,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.errors import FlowvoError
-from flowvo.sources.base import CameraIntrinsics, safe_source_name
+from flowvo.sources.base import safe_source_name
 from flowvo.sources.intrinsics import check_intrinsics
 from flowvo.trajectory import Trajectory
 

@@ -1,0 +1,192 @@
+"""The camera: pinhole intrinsics, lens distortion and the camera's height above the road.
+
+One home for everything that describes a camera, whatever the source (KITTI calib.txt, a calibration file,
+command-line flags, a ROS CameraInfo, an estimate from the motion). Pure data and maths over NumPy arrays
+(OpenCV for the distortion models); pixels are those of the frames the camera describes, x right, y down.
+
+Distortion models (coefficients in OpenCV's and ROS's order):
+- ``plumb_bob`` (radial-tangential, Kalibr's ``radtan``): k1 k2 p1 p2 [k3];
+- ``rational_polynomial``: k1 k2 p1 p2 k3 k4 k5 k6;
+- ``equidistant`` (fisheye, OpenCV's ``cv2.fisheye``): k1 k2 k3 k4.
+Undistorted pixels are those of an ideal pinhole camera with the same intrinsics ``K``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from flowvo.errors import FlowvoError
+
+KITTI_CAMERA_HEIGHT_M = 1.65  # KITTI's left grey camera above the road (its published rig drawing)
+MAX_CAMERA_HEIGHT_M = 10.0  # a camera on a truck cab is ~3 m; beyond 10 m no road scale makes sense
+
+# model name -> accepted coefficient counts
+DISTORTION_MODELS: dict[str, tuple[int, ...]] = {
+    "none": (0,),
+    "plumb_bob": (4, 5),
+    "rational_polynomial": (8,),
+    "equidistant": (4,),
+}
+# other names for the same models (ROS, Kalibr, OpenCV usage)
+DISTORTION_ALIASES = {"radtan": "plumb_bob", "radial-tangential": "plumb_bob", "pinhole-radtan": "plumb_bob",
+                      "fisheye": "equidistant", "pinhole-equi": "equidistant", "equi": "equidistant",
+                      "rational": "rational_polynomial", "": "none"}
+CAMERA_SOURCES = ("kitti", "calib", "flags", "camera_info", "estimated")
+
+
+@dataclass(frozen=True)
+class CameraIntrinsics:
+    """Pinhole intrinsics in pixels: focal lengths ``fx``, ``fy`` and principal point ``cx``, ``cy``."""
+
+    fx: float
+    fy: float
+    cx: float
+    cy: float
+
+    @property
+    def K(self) -> np.ndarray:
+        """The 3x3 camera matrix."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @classmethod
+    def from_matrix(cls, K: np.ndarray) -> CameraIntrinsics:
+        """From a 3x3 (or the left 3x3 of a 3x4 projection) matrix."""
+        return cls(float(K[0, 0]), float(K[1, 1]), float(K[0, 2]), float(K[1, 2]))
+
+    def scaled(self, scale_x: float, scale_y: float) -> CameraIntrinsics:
+        """Intrinsics of the image resized by ``scale_x`` (width) and ``scale_y`` (height).
+
+        Pixel centres map as ``x' = (x + 0.5) * s - 0.5``, as cv2.resize samples them.
+        """
+        return CameraIntrinsics(self.fx * scale_x, self.fy * scale_y,
+                                (self.cx + 0.5) * scale_x - 0.5, (self.cy + 0.5) * scale_y - 0.5)
+
+
+def distortion_model_name(name: str) -> str:
+    """The canonical model name of ``name`` (case-insensitive, ROS/Kalibr/OpenCV aliases accepted)."""
+    key = name.strip().lower()
+    key = DISTORTION_ALIASES.get(key, key)
+    if key not in DISTORTION_MODELS:
+        raise FlowvoError(f"unknown distortion model {name!r}; expected one of "
+                          f"{', '.join(m for m in DISTORTION_MODELS if m != 'none')} (or radtan, fisheye)")
+    return key
+
+
+@dataclass(frozen=True)
+class LensDistortion:
+    """A lens distortion model and its coefficients (dimensionless, in normalised image coordinates, so
+    they do not change when the frames are resized)."""
+
+    model: str = "none"
+    coefficients: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        model = distortion_model_name(self.model)
+        coefficients = tuple(float(c) for c in self.coefficients)
+        if model == "plumb_bob" and len(coefficients) == 0:
+            model = "none"
+        if not all(math.isfinite(c) for c in coefficients):
+            raise FlowvoError(f"distortion coefficients must be finite, got {list(coefficients)}")
+        if len(coefficients) not in DISTORTION_MODELS[model]:
+            counts = " or ".join(str(n) for n in DISTORTION_MODELS[model])
+            raise FlowvoError(f"the {model} distortion model takes {counts} coefficients, got {len(coefficients)}")
+        if model != "none" and not any(coefficients):
+            model, coefficients = "none", ()
+        object.__setattr__(self, "model", model)
+        object.__setattr__(self, "coefficients", coefficients)
+
+    @property
+    def is_none(self) -> bool:
+        return self.model == "none"
+
+    @property
+    def D(self) -> np.ndarray:
+        """The coefficients as OpenCV takes them (float64)."""
+        return np.asarray(self.coefficients, dtype=np.float64)
+
+
+NO_DISTORTION = LensDistortion()
+
+
+def undistort_points(points_px: np.ndarray, K: np.ndarray, distortion: LensDistortion) -> np.ndarray:
+    """Where distorted pixels ``points_px`` (N, 2) lie in the ideal pinhole image with the same ``K``;
+    (N, 2) float32. The identity without distortion."""
+    if distortion.is_none or not len(points_px):
+        return np.asarray(points_px, dtype=np.float32)
+    points = np.ascontiguousarray(points_px, dtype=np.float64).reshape(-1, 1, 2)
+    if distortion.model == "equidistant":
+        undistorted = cv2.fisheye.undistortPoints(points, K, distortion.D, P=K)
+    else:
+        criteria = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 20, 1e-6)  # OpenCV's default 5: too few
+        if hasattr(cv2, "undistortPointsIter"):  # OpenCV 4
+            undistorted = cv2.undistortPointsIter(points, K, distortion.D, None, K, criteria)
+        else:  # OpenCV 5 took the criteria into undistortPoints
+            undistorted = cv2.undistortPoints(points, K, distortion.D, R=None, P=K, criteria=criteria)
+    return undistorted.reshape(-1, 2).astype(np.float32)
+
+
+def distort_points(points_px: np.ndarray, K: np.ndarray, distortion: LensDistortion) -> np.ndarray:
+    """Where ideal pinhole pixels ``points_px`` (N, 2) appear through the lens (the inverse of
+    :func:`undistort_points`); (N, 2) float64."""
+    points = np.asarray(points_px, dtype=np.float64).reshape(-1, 2)
+    if distortion.is_none or not len(points):
+        return points.copy()
+    rays = np.c_[(points[:, 0] - K[0, 2]) / K[0, 0], (points[:, 1] - K[1, 2]) / K[1, 1], np.ones(len(points))]
+    if distortion.model == "equidistant":
+        projected = cv2.fisheye.distortPoints(rays[:, None, :2].copy(), K, distortion.D)
+    else:
+        projected, _ = cv2.projectPoints(rays[:, None, :], np.zeros(3), np.zeros(3), K, distortion.D)
+    return projected.reshape(-1, 2)
+
+
+def undistortion_maps(image_hw: tuple[int, int], K: np.ndarray, distortion: LensDistortion
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """``cv2.remap`` maps that turn a distorted frame (H, W) into the ideal pinhole frame with the same K."""
+    h, w = image_hw
+    if distortion.model == "equidistant":
+        return cv2.fisheye.initUndistortRectifyMap(K, distortion.D, np.eye(3), K, (w, h), cv2.CV_16SC2)
+    return cv2.initUndistortRectifyMap(K, distortion.D, None, K, (w, h), cv2.CV_16SC2)
+
+
+@dataclass(frozen=True)
+class Camera:
+    """Everything flowvo needs to know about a camera: pinhole ``intrinsics`` (pixels of the frames),
+    ``distortion`` of its lens, its ``height_m`` above the road (metres; None: not known, KITTI's 1.65 m is
+    then assumed) and where the intrinsics came from (``source``, one of :data:`CAMERA_SOURCES`)."""
+
+    intrinsics: CameraIntrinsics
+    distortion: LensDistortion = field(default=NO_DISTORTION)
+    height_m: float | None = None
+    source: str = "flags"
+
+    @property
+    def K(self) -> np.ndarray:
+        return self.intrinsics.K
+
+    @property
+    def camera_height_m(self) -> float:
+        """The height above the road the road scale uses, metres (KITTI's when not known)."""
+        return KITTI_CAMERA_HEIGHT_M if self.height_m is None else self.height_m
+
+    def scaled(self, scale_x: float, scale_y: float) -> Camera:
+        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion and height unchanged)."""
+        return Camera(self.intrinsics.scaled(scale_x, scale_y), self.distortion, self.height_m, self.source)
+
+    def record(self) -> dict:
+        """The camera as ``run.json`` records it."""
+        i = self.intrinsics
+        return {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion_model": self.distortion.model,
+                "distortion": list(self.distortion.coefficients), "camera_height_m": self.camera_height_m,
+                "camera_height_given": self.height_m is not None, "source": self.source}
+
+
+def check_camera_height(height_m: float, where: str | None = None) -> float:
+    """``height_m`` when it is a plausible camera height above the road; a one-line error otherwise."""
+    if not (isinstance(height_m, int | float) and math.isfinite(height_m) and 0 < height_m <= MAX_CAMERA_HEIGHT_M):
+        raise FlowvoError(f"camera height must be a finite number of metres in (0, {MAX_CAMERA_HEIGHT_M:g}], "
+                          f"got {height_m}", where)
+    return float(height_m)
