@@ -11,10 +11,10 @@ from flowvo.cli import main
 from flowvo.errors import FlowvoError
 from flowvo.model.checkpoint import load_model, packaged_model_path, save_checkpoint
 from flowvo.model.config import ModelConfig
-from flowvo.model.data import Normalization, mirror_input
 from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.export import export_onnx, export_torchscript
 from flowvo.model.network import OdometryNet
+from flowvo.model.preprocess import Normalization, mirror_input
 
 pytest.importorskip("onnx")
 pytest.importorskip("onnxruntime")

@@ -6,8 +6,9 @@ from flowvo import geometry as g
 from flowvo.errors import FlowvoError
 from flowvo.model.checkpoint import check_compatible, load_model, save_checkpoint
 from flowvo.model.config import ModelConfig, TrainConfig
-from flowvo.model.data import Normalization, OdometryDataset, mirror_input, resize_flow
+from flowvo.model.data import OdometryDataset
 from flowvo.model.network import OdometryNet, flops_per_frame, parameter_count
+from flowvo.model.preprocess import Normalization, mirror_input, resize_flow
 from flowvo.projection import flow_from_depth
 
 

@@ -60,7 +60,7 @@ def test_bench_prints_the_timing_table(classical_runs, capsys):
     assert main(["bench", "--data", str(root), "--sequence", "00", "--frames", "12", "--repeat", "2"]) == 0
     table = capsys.readouterr().out.splitlines()
     assert table[2].startswith("flowvo (") and "0.633" in table[-2]  # the default method first
-    assert table[3].startswith("CNN (") and table[4].startswith("classical VO")
+    assert table[3].startswith("cnn (") and table[4].startswith("classical (")
     stage_cells = {row.split()[0]: row[63:].split()[:5] for row in table[2:5]}  # read flow network geometry chain
     assert stage_cells["flowvo"][2] == "-" and stage_cells["CNN"][3] == "-"  # no network / no geometry stage
     assert stage_cells["classical"][2] == "-" and stage_cells["classical"][3] != "-"  # KLT, then the geometry
@@ -79,8 +79,8 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
     assert "report:" in printed and "synthetic" in printed
     page = (tmp_path / "report" / "index.html").read_text()
     assert "flowvo (dis-medium-fine road flow, geometry, network fallback)" in page
-    assert "CNN (dis-medium flow + network)" in page
-    assert "classical VO" in page
+    assert "cnn (dis-medium flow + network)" in page
+    assert "classical (KLT" in page
     assert re.search(r"flowvo \(dis-medium-fine[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary
     seconds = r"\d+\.\d{4}"
 
@@ -89,4 +89,4 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
         return found.group(1) if found else "row not found"
 
     assert re.fullmatch(seconds, network_cell("CNN"))
-    assert network_cell("flowvo") == "-" and network_cell("classical VO") == "-"  # they have no network stage
+    assert network_cell("flowvo") == "-" and network_cell("classical (KLT") == "-"  # they have no network stage

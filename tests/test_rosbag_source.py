@@ -60,7 +60,8 @@ def test_bag_frames_stamps_and_intrinsics_equal_the_kitti_folder(tmp_path, kitti
     source = open_bag_source(bag, TOPIC, camera_info_topic=INFO_TOPIC)
     assert source.name == "drive" and source.ground_truth is None and not source.is_synthetic
     assert source.frame_count == len(kitti) and source.image_size_hw == kitti.image_size_hw
-    assert source.intrinsics == CameraIntrinsics.from_matrix(kitti.calibration.K0)
+    assert source.camera.intrinsics == CameraIntrinsics.from_matrix(kitti.calibration.K0)
+    assert source.camera.distortion.is_none and source.camera.source == "camera_info"
     frames = list(source.frames())
     np.testing.assert_allclose([t for t, _ in frames], kitti.times_s, atol=1e-9)
     for (_, image), expected in zip(frames, kitti.frames(), strict=True):
@@ -79,7 +80,7 @@ def test_given_intrinsics_are_used_and_frames_can_be_read_twice(tmp_path):
     bag = write_bag(tmp_path, "ros1", small_spec(K=None))
     intrinsics = CameraIntrinsics(30.0, 31.0, 7.5, 5.5)
     source = open_bag_source(bag, TOPIC, intrinsics=intrinsics)
-    assert source.intrinsics == intrinsics
+    assert source.camera is None  # the given intrinsics describe it
     first, second = list(source.frames()), list(source.frames())
     assert len(first) == 3
     assert all(np.array_equal(a[1], b[1]) and a[0] == b[0] for a, b in zip(first, second, strict=True))

@@ -4,14 +4,13 @@ import cv2
 import numpy as np
 import pytest
 
-from flowvo.camera import CameraIntrinsics
+from flowvo.drive import RunOptions, open_drive
 from flowvo.errors import FlowvoError
 from flowvo.sources import video as video_module
 from flowvo.sources.video import next_timestamp_s, open_video_source
 
 FPS = 12.5
 SIZE_HW = (48, 80)
-INTRINSICS = CameraIntrinsics(fx=70.0, fy=70.0, cx=39.5, cy=23.5)
 
 
 def colour_frames(count: int) -> list[np.ndarray]:
@@ -39,10 +38,10 @@ def video(tmp_path):
 
 def test_video_reads_back_grey_frames_sizes_and_container_timestamps(video):
     path, frames = video
-    source = open_video_source(path, INTRINSICS)
+    source = open_video_source(path)
     assert source.name == "my_drive__1_"
     assert source.image_size_hw == SIZE_HW and source.frame_count == 12 and source.frame_rate_hz == FPS
-    assert source.intrinsics == INTRINSICS and source.ground_truth is None and not source.is_synthetic
+    assert source.camera is None and source.ground_truth is None and not source.is_synthetic
     read = list(source.frames())
     assert len(read) == 12
     times_s = np.array([t for t, _ in read])
@@ -55,20 +54,20 @@ def test_video_reads_back_grey_frames_sizes_and_container_timestamps(video):
 
 def test_missing_file_is_refused(tmp_path):
     with pytest.raises(FlowvoError, match="absent.mp4: video file not found"):
-        open_video_source(tmp_path / "absent.mp4", INTRINSICS)
+        open_video_source(tmp_path / "absent.mp4")
 
 
 @pytest.mark.parametrize("content", [b"", b"not a video\n" * 20])
 def test_empty_or_text_file_is_refused(tmp_path, content):
     (tmp_path / "clip.avi").write_bytes(content)
     with pytest.raises(FlowvoError, match="clip.avi: OpenCV cannot open this file as a video"):
-        open_video_source(tmp_path / "clip.avi", INTRINSICS)
+        open_video_source(tmp_path / "clip.avi")
 
 
 def test_truncated_file_raises_where_decoding_stops(video):
     path, _ = video
     path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
-    source = open_video_source(path, INTRINSICS)  # the first frames still decode
+    source = open_video_source(path)  # the first frames still decode
     with pytest.raises(FlowvoError, match=r"my drive \(1\).avi: decoding stopped after \d of the 12 frames"):
         list(source.frames())
 
@@ -76,14 +75,14 @@ def test_truncated_file_raises_where_decoding_stops(video):
 def test_missing_intrinsics_are_refused(video):
     path, _ = video
     with pytest.raises(FlowvoError, match=r"\(1\).avi: a video carries no camera intrinsics: give --calib"):
-        open_video_source(path, None)
+        open_drive(RunOptions(out="unused", video=str(path)))
 
 
 def test_principal_point_outside_the_frame_is_refused(video):
     path, _ = video
-    outside = CameraIntrinsics(fx=70.0, fy=70.0, cx=120.0, cy=23.5)
-    with pytest.raises(FlowvoError, match=r"\(1\).avi: principal point \(120.0, 23.5\) lies outside the 80x48"):
-        open_video_source(path, outside)
+    options = RunOptions(out="unused", video=str(path), fx=70.0, fy=70.0, cx=120.0, cy=23.5)
+    with pytest.raises(FlowvoError, match=r"principal point \(120.0, 23.5\) lies outside the 80x48"):
+        open_drive(options)
 
 
 def test_missing_or_repeated_container_times_fall_back_to_the_frame_rate():
@@ -114,7 +113,7 @@ class WithoutContainerTimes:
 
 def test_stream_without_container_times_is_timed_by_the_frame_rate_with_one_warning(video, monkeypatch, caplog):
     path, _ = video
-    source = open_video_source(path, INTRINSICS)
+    source = open_video_source(path)
     monkeypatch.setattr(video_module, "_open_capture", WithoutContainerTimes)
     with caplog.at_level(logging.WARNING, logger="flowvo.sources.video"):
         times_s = [t for t, _ in source.frames()]

@@ -1,6 +1,6 @@
 """``flowvo bench``: streaming frames per second and seconds per stage of each method on one drive.
 
-Every method runs through the same per-frame step as ``flowvo run`` (:mod:`flowvo.odometry_step`), one
+Every method runs through the same per-frame step as ``flowvo run`` (:mod:`flowvo.methods`), one
 frame at a time as a car's computer would, with frames decoded in a reader thread. Frames per second is
 wall-clock over the whole stream; stage seconds are means per frame. Each number is the median of
 ``repeat`` runs.
@@ -8,17 +8,17 @@ wall-clock over the whole stream; stage seconds are means per frame. Each number
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
 
 from flowvo.atomic import write_text_atomic
-from flowvo.drive import RunOptions, make_step, open_source
+from flowvo.drive import RunOptions, make_step, open_drive
 from flowvo.errors import FlowvoError
+from flowvo.reference_system import REFERENCE_SECONDS_PER_FRAME
 from flowvo.stages import STAGES, stage_seconds_text
 from flowvo.stream import stream_odometry, timing_report
-
-REFERENCE_SECONDS_PER_FRAME = 0.633  # the reference system (2016), published, on a GPU
 
 
 def benchmark(options: RunOptions, methods: list[str], frames: int, repeat: int) -> list[dict]:
@@ -29,11 +29,12 @@ def benchmark(options: RunOptions, methods: list[str], frames: int, repeat: int)
         raise FlowvoError(f"--repeat must be at least 1, got {repeat}")
     rows = []
     for method in methods:
-        options.method = method
+        method_options = dataclasses.replace(options, method=method)
         reports, label, used = [], "", 0
         for _ in range(repeat):
-            source = open_source(options)
-            step = make_step(options, source)
+            drive = open_drive(method_options)
+            step = make_step(method_options, drive)
+            source = drive.source
             result = stream_odometry(source.frames(), step, min(frames, source.frame_count or frames), frames,
                                      f"bench {method}")
             reports.append(timing_report(result))

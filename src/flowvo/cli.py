@@ -8,16 +8,19 @@ import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from flowvo import __version__
 from flowvo.errors import FlowvoError
+from flowvo.flow.registry import available_methods as available_flow_methods
+from flowvo.methods import DEFAULT_METHOD, METHODS, methods_help
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M as DEVKIT_LENGTHS_M
 from flowvo.progress import set_progress_enabled
 
-Command = Callable[[argparse.Namespace], int]
-
+if TYPE_CHECKING:
+    from flowvo.drive import RunOptions
 
 def _bounded(kind: type, low: float, high: float = math.inf, low_open: bool = False) -> Callable[[str], float]:
     """An argparse ``type=``: a finite ``kind`` (int or float) in [low, high] ((low, high] if ``low_open``)."""
@@ -233,20 +236,65 @@ def _add_train(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_train)
 
 
-def _cmd_run(args: argparse.Namespace) -> int:
-    from flowvo.pipeline import RunOptions, run
+def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = DEFAULT_METHOD) -> None:
+    """The drive, camera and method options of ``run``, ``bench`` (and everything that runs a drive)."""
+    drive = p.add_argument_group("drive (one of)")
+    drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
+    drive.add_argument("--sequence", help="sequence name under DATA/sequences, e.g. 07")
+    drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy)")
+    drive.add_argument("--bag", help="a ROS 1 .bag, a ROS 2 bag folder or an .mcap (with --topic)")
+    drive.add_argument("--topic", help="image topic of --bag (sensor_msgs/Image or CompressedImage)")
+    drive.add_argument("--camera-info-topic", help="sensor_msgs/CameraInfo topic of --bag (intrinsics, distortion)")
+    camera = p.add_argument_group("camera (pixels of the frames; for a KITTI folder these override its calib.txt)")
+    camera.add_argument("--calib", help="calibration file: KITTI calib.txt, OpenCV FileStorage YAML/XML, ROS "
+                                        "camera_calibration YAML (what 'flowvo calibrate' writes) or Kalibr camchain")
+    for name in ("fx", "fy", "cx", "cy"):
+        camera.add_argument(f"--{name}", type=float, help=f"intrinsics: {name} in pixels (all four together)")
+    camera.add_argument("--dist", nargs="+", type=float, metavar="K", help="lens distortion coefficients: "
+                        "K1 K2 P1 P2 [K3] (plumb_bob), 8 (rational_polynomial) or K1..K4 (equidistant)")
+    camera.add_argument("--distortion-model", choices=("plumb_bob", "rational_polynomial", "equidistant"),
+                        help="model of --dist (default plumb_bob)")
+    camera.add_argument("--camera-height", type=_bounded(float, 0.0, 10.0, low_open=True), metavar="M",
+                        help="camera height above the road in metres (default: the calibration's, else KITTI's 1.65)")
+    if methods_default is not None:
+        p.add_argument("--method", choices=list(METHODS), default=methods_default, help=methods_help())
+    p.add_argument("--model", help="network checkpoint for cnn and flowvo's fallback (default: the packaged model)")
+    p.add_argument("--flow-method", choices=available_flow_methods(),
+                   help="flow method (flowvo: of the road crop, default dis-medium-fine; cnn: default the model's)")
 
-    if args.cache:
-        print("flowvo run: note: --cache is not used (run streams frames; flow caches serve training)",
-              file=sys.stderr)
-    summary = run(RunOptions(out=args.out, data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
-                             topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib,
-                             fx=args.fx, fy=args.fy, cx=args.cx, cy=args.cy, method=args.method, model=args.model,
-                             flow_method=args.flow_method, classical_scale=args.scale_from,
-                             max_frames=args.max_frames, mcap=args.mcap, frame_id=args.frame_id,
-                             child_frame_id=args.child_frame_id, force=args.force,
-                             lengths_m=tuple(sorted(set(args.lengths)))))
+
+def _run_options(args: argparse.Namespace, out: str) -> RunOptions:
+    """RunOptions from the parsed drive options (see :func:`_add_drive_options`)."""
+    from flowvo.drive import RunOptions
+
+    return RunOptions(out=out, data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
+                      topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
+                      fy=args.fy, cx=args.cx, cy=args.cy, distortion=tuple(args.dist) if args.dist else None,
+                      distortion_model=args.distortion_model, camera_height_m=args.camera_height,
+                      method=getattr(args, "method", DEFAULT_METHOD), model=args.model, flow_method=args.flow_method,
+                      classical_scale=getattr(args, "scale_from", "height"),
+                      max_frames=getattr(args, "max_frames", None))
+
+
+def _camera_line(summary: dict) -> str:
+    """The run summary's camera in one line."""
+    camera = summary["camera"]
+    distortion = "no distortion" if camera["distortion_model"] == "none" else \
+        f"{camera['distortion_model']} {' '.join(f'{v:g}' for v in camera['distortion'])}"
+    height = f"{camera['camera_height_m']:g} m" + ("" if camera["camera_height_given"] else " (KITTI's, assumed)")
+    return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "
+            f"cy {camera['cy']:.1f}, {distortion}, height {height}")
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    from flowvo.pipeline import run
+
+    options = _run_options(args, args.out)
+    options.mcap, options.frame_id, options.child_frame_id = args.mcap, args.frame_id, args.child_frame_id
+    options.force, options.lengths_m = args.force, tuple(sorted(set(args.lengths)))
+    summary = run(options)
     print(f"{summary['label']} on {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
+    print(_camera_line(summary))
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     if "mcap" in summary:
@@ -263,36 +311,17 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _add_run(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("run", help="odometry on one drive (KITTI sequence, video, ROS bag): poses, timing, evaluation")
-    drive = p.add_argument_group("drive (one of)")
-    drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
-    drive.add_argument("--sequence", help="sequence name under DATA/sequences, e.g. 07")
-    drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy)")
-    drive.add_argument("--bag", help="a ROS 1 .bag, a ROS 2 bag folder or an .mcap (with --topic)")
-    drive.add_argument("--topic", help="image topic of --bag (sensor_msgs/Image or CompressedImage)")
-    drive.add_argument("--camera-info-topic", help="sensor_msgs/CameraInfo topic of --bag for the intrinsics")
-    camera = p.add_argument_group("intrinsics for --video and --bag (pixels of the frames)")
-    camera.add_argument("--calib", help="KITTI calib.txt (its P0)")
-    for name in ("fx", "fy", "cx", "cy"):
-        camera.add_argument(f"--{name}", type=float)
+    _add_drive_options(p)
     p.add_argument("--out", required=True, help="output folder")
-    p.add_argument("--method", choices=("flowvo", "flowvo-geometry", "cnn", "classical"), default="flowvo",
-                   help="flowvo (default): tracked points + dense road flow, road-plane scale from the 1.65 m "
-                        "camera height, the packaged network where no road is seen; flowvo-geometry: the same "
-                        "without the network; cnn: the thesis network (--model, default the packaged one); "
-                        "classical: KLT + essential matrix")
-    p.add_argument("--model", help="checkpoint for --method cnn (default: the packaged model)")
-    p.add_argument("--flow-method", help="flow method (flowvo: of the road crop, default dis-medium-fine; cnn: "
-                                         "default the model's)")
     p.add_argument("--scale-from", choices=("height", "gt"), default="height",
-                   help="classical method's metric scale: the 1.65 m camera height, or GT step lengths (labelled)")
+                   help="classical method's metric scale: the camera height, or GT step lengths (labelled)")
     p.add_argument("--max-frames", type=FRAME_COUNT, help="stop after this many frames")
     p.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
                    help="evaluation sub-path lengths in metres (default the devkit's 100..800)")
     p.add_argument("--mcap", action="store_true", help="also write NAME.mcap (nav_msgs/Odometry, /tf, nav_msgs/Path); "
                                                         "always on for --bag")
-    p.add_argument("--frame-id", default="odom", help="MCAP parent frame id (default odom)")
-    p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id (default camera_optical)")
-    p.add_argument("--cache", help=argparse.SUPPRESS)
+    p.add_argument("--frame-id", default="odom", help="MCAP parent frame id")
+    p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id")
     _force_flag(p, "this drive's earlier result in --out (poses, timing, run.json, eval_NAME/, NAME.mcap)")
     p.set_defaults(func=_cmd_run)
 
@@ -381,12 +410,8 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from flowvo.bench import benchmark, format_bench_table, write_bench_json
-    from flowvo.drive import RunOptions
 
-    options = RunOptions(out="", data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
-                         topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
-                         fy=args.fy, cx=args.cx, cy=args.cy, model=args.model, flow_method=args.flow_method)
-    rows = benchmark(options, args.methods, args.frames, args.repeat)
+    rows = benchmark(_run_options(args, ""), args.methods, args.frames, args.repeat)
     print(format_bench_table(rows))
     if args.json:
         write_bench_json(args.json, rows)
@@ -396,21 +421,11 @@ def _cmd_bench(args: argparse.Namespace) -> int:
 
 def _add_bench(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="streaming frames/s and seconds per stage of each method, median of repeats")
-    p.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
-    p.add_argument("--sequence")
-    p.add_argument("--video", help="or a video file (with --calib or --fx --fy --cx --cy)")
-    p.add_argument("--bag", help="or a ROS bag / MCAP (with --topic)")
-    p.add_argument("--topic")
-    p.add_argument("--camera-info-topic")
-    p.add_argument("--calib")
-    for name in ("fx", "fy", "cx", "cy"):
-        p.add_argument(f"--{name}", type=float)
-    p.add_argument("--methods", nargs="+", choices=("flowvo", "flowvo-geometry", "cnn", "classical"),
-                   default=["flowvo", "cnn", "classical"], help="methods in table order (default method first)")
+    _add_drive_options(p, methods_default=None)
+    p.add_argument("--methods", nargs="+", choices=list(METHODS), default=["flowvo", "cnn", "classical"],
+                   help="methods in table order (default method first)")
     p.add_argument("--frames", type=FRAME_COUNT, default=200, help="frames per run (at least 2)")
     p.add_argument("--repeat", type=POSITIVE_INT, default=3, help="runs per method; the table shows medians")
-    p.add_argument("--model", help="checkpoint for cnn (default: the packaged model)")
-    p.add_argument("--flow-method", help="override the flow method")
     p.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
     p.set_defaults(func=_cmd_bench)
 

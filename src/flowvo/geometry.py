@@ -8,6 +8,7 @@ the camera y axis, ``yaw = atan2(R[0, 2], R[0, 0])``, positive when turning righ
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 # The mirroring rule (one source of truth): reflecting the scene left-right maps a motion T to S T S.
 MIRROR_X = np.diag([-1.0, 1.0, 1.0, 1.0])
@@ -101,45 +102,16 @@ def chain_se3(motions: np.ndarray, T_world_start: np.ndarray | None = None) -> n
     return poses
 
 
-def _skew(w: np.ndarray) -> np.ndarray:
-    zero = np.zeros_like(w[..., 0])
-    return np.stack(
-        [
-            np.stack([zero, -w[..., 2], w[..., 1]], -1),
-            np.stack([w[..., 2], zero, -w[..., 0]], -1),
-            np.stack([-w[..., 1], w[..., 0], zero], -1),
-        ],
-        -2,
-    )
-
-
 def so3_exp(rotvec: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) from axis-angle vectors (..., 3), radians (Rodrigues)."""
-    theta = np.linalg.norm(rotvec, axis=-1)[..., None, None]
-    K = _skew(rotvec)
-    small = theta < 1e-8
-    safe = np.where(small, 1.0, theta)
-    a = np.where(small, 1.0 - theta**2 / 6.0, np.sin(safe) / safe)
-    b = np.where(small, 0.5 - theta**2 / 24.0, (1.0 - np.cos(safe)) / safe**2)
-    return np.eye(3) + a * K + b * (K @ K)
+    """Rotation matrices (..., 3, 3) from axis-angle vectors (..., 3), radians."""
+    rotvec = np.asarray(rotvec, dtype=np.float64)
+    return Rotation.from_rotvec(rotvec.reshape(-1, 3)).as_matrix().reshape(*rotvec.shape[:-1], 3, 3)
 
 
 def so3_log(rotation: np.ndarray) -> np.ndarray:
-    """Axis-angle vectors (..., 3), radians, of rotations (..., 3, 3); accurate for angles below ~3 rad."""
-    cos_theta = np.clip((np.trace(rotation, axis1=-2, axis2=-1) - 1.0) / 2.0, -1.0, 1.0)
-    theta = np.arccos(cos_theta)
-    vee = np.stack(
-        [
-            rotation[..., 2, 1] - rotation[..., 1, 2],
-            rotation[..., 0, 2] - rotation[..., 2, 0],
-            rotation[..., 1, 0] - rotation[..., 0, 1],
-        ],
-        -1,
-    )
-    sin_theta = np.sin(theta)
-    small = sin_theta < 1e-8
-    scale = np.where(small, 0.5 + theta**2 / 12.0, theta / (2.0 * np.where(small, 1.0, sin_theta)))
-    return vee * scale[..., None]
+    """Axis-angle vectors (..., 3), radians (angle in [0, pi]), of rotations (..., 3, 3)."""
+    rotation = np.asarray(rotation, dtype=np.float64)
+    return Rotation.from_matrix(rotation.reshape(-1, 3, 3)).as_rotvec().reshape(*rotation.shape[:-2], 3)
 
 
 def se3_targets(motions: np.ndarray) -> np.ndarray:
@@ -153,11 +125,6 @@ def se3_from_targets(targets: np.ndarray) -> np.ndarray:
     motions[:, :3, :3] = so3_exp(targets[:, 3:])
     motions[:, :3, 3] = targets[:, :3]
     return motions
-
-
-def mirror_motion(motion: np.ndarray) -> np.ndarray:
-    """The motion seen in a left-right mirrored video: ``S M S`` with ``S = diag(-1, 1, 1)``."""
-    return MIRROR_X @ motion @ MIRROR_X
 
 
 TARGET_NAMES = {  # the components of each head's targets, in order, with their units

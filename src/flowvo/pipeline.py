@@ -8,13 +8,12 @@ with ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
 
 from flowvo.atomic import write_json_atomic
-from flowvo.drive import RunOptions, make_step, open_source
+from flowvo.drive import RunOptions, make_step, open_drive
 from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
@@ -26,10 +25,11 @@ def run(options: RunOptions) -> dict:
     """Run odometry and write every output; returns the run summary (also in run.json)."""
     from flowvo.stream import stream_odometry, timing_report
 
-    source = open_source(options)
+    drive = open_drive(options)
+    source = drive.source
     if source.frame_count is not None and source.frame_count < 2:
         raise FlowvoError(f"has {source.frame_count} frame(s); odometry needs at least 2", source.name)
-    step = make_step(options, source)
+    step = make_step(options, drive)
     write_mcap = options.mcap or bool(options.bag)
     if write_mcap:
         from flowvo.ros.extra import require_ros_extra
@@ -46,7 +46,7 @@ def run(options: RunOptions) -> dict:
     timing = timing_report(result)
     write_json_atomic(out / "timing.json", timing)
     summary = {
-        "label": options.label or step.label,
+        "label": step.label,
         "method": options.method,
         "sequence": source.name,
         "data": str(Path(options.data).resolve()) if options.data else None,
@@ -54,7 +54,7 @@ def run(options: RunOptions) -> dict:
         "synthetic": source.is_synthetic,
         "frames": result.frames,
         "poses": f"{source.name}.txt",
-        "intrinsics": dataclasses.asdict(source.intrinsics),
+        "camera": drive.camera.record(),
         "frames_per_second": timing["frames_per_second"],
     }
     if write_mcap:
@@ -63,10 +63,7 @@ def run(options: RunOptions) -> dict:
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
                             frame_id=options.frame_id, child_frame_id=options.child_frame_id)
         summary["mcap"] = f"{source.name}.mcap"
-    if getattr(step, "fallback", None) is not None:
-        summary["network_distance_steps"] = step.fallback_frames  # steps without a trustworthy road plane
-    if options.method == "classical":
-        summary["scale_source"] = options.classical_scale
+    summary.update(step.summary())
     if source.ground_truth is not None:
         gt = source.ground_truth.subset(np.arange(result.frames)) if result.frames < len(source.ground_truth) \
             else source.ground_truth

@@ -18,15 +18,9 @@ from flowvo.evaluation import Evaluation, evaluate, pooled_summary
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.outputs import prepare_output_dir, validate_name
+from flowvo.reference_system import REFERENCE_FIGURES, REFERENCE_LABEL, REFERENCE_SECONDS_PER_FRAME
 from flowvo.stages import STAGES, stage_seconds_text
 
-REFERENCE_LABEL = "reference system (2016), published"
-REFERENCE_FIGURES = {  # sequence -> (t_err %, r_err deg/m), as published; 10 alone was not given
-    "08": (9.98, 0.0544),
-    "09": (12.64, 0.0804),
-    "average 08-10": (10.77, 0.0623),
-}
-REFERENCE_SECONDS_PER_FRAME = 0.633
 RUN_KEYS = ("label", "sequence", "data", "synthetic", "frames", "poses")
 TIMING_STAGES = ("image_read", "flow", "network", "total")
 
@@ -200,7 +194,8 @@ def write_report(run_folders: list[str | Path], out_dir: str | Path, force: bool
         "<h2>Timing on this machine</h2>", _timing_table(runs),
         "<p>Seconds per frame by stage, streaming one frame at a time; image reading runs in its own thread, "
         "overlapped with the others, and the total is wall-clock. Speed-ups divide the reference system's "
-        "0.633 s/frame (GPU) and the same sequence's first classical run by each method's total.</p>",
+        f"{REFERENCE_SECONDS_PER_FRAME} s/frame (GPU) and the same sequence's first classical run by each "
+        "method's total.</p>",
         "<h2>Figures</h2>",
         *(f"<figure{' class=wide' if name.startswith(('path_', 'frame_errors_')) else ''}><img src='{name}' "
           f"alt='{html.escape(caption)}'><figcaption>{html.escape(caption)}</figcaption></figure>"

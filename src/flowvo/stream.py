@@ -17,7 +17,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from flowvo.errors import FlowvoError
-from flowvo.odometry_step import OdometryStep
+from flowvo.methods.base import OdometryStep
 from flowvo.progress import progress
 from flowvo.stages import STAGES
 

@@ -9,8 +9,6 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from flowvo.flow.registry import register
-
 # name: (OpenCV preset, finest pyramid level or None for the preset's). The presets stop one level above
 # the input (finest level 1: flow estimated at half resolution, then upsampled); the "-fine" variants
 # go down to the input resolution, which halves the spread of road-plane scale estimates on real KITTI.
@@ -40,11 +38,6 @@ class DisFlow:
         return {"preset": self.name, "opencv": cv2.__version__}
 
 
-for _preset in DIS_PRESETS:
-    register(_preset)(DisFlow)
-
-
-@register("farneback")
 class FarnebackFlow:
     """OpenCV Farneback polynomial-expansion flow (5 levels, 15 px window)."""
 

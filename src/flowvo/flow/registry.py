@@ -9,6 +9,7 @@ from typing import Protocol
 import numpy as np
 
 from flowvo.errors import FlowvoError
+from flowvo.flow.classical import DIS_PRESETS, DisFlow, FarnebackFlow
 
 
 class FlowEstimator(Protocol):
@@ -23,7 +24,8 @@ class FlowEstimator(Protocol):
         ...
 
 
-_FACTORIES: dict[str, Callable[..., FlowEstimator]] = {}
+_FACTORIES: dict[str, Callable[..., FlowEstimator]] = {**dict.fromkeys(DIS_PRESETS, DisFlow),
+                                                       "farneback": FarnebackFlow}
 
 # Learned methods by "module:class", imported only when created: listing the methods (the CLI's --help)
 # then needs no torch.
@@ -34,25 +36,13 @@ _LEARNED: dict[str, str] = {
 }
 
 
-def register(name: str) -> Callable:
-    """Class decorator: make an estimator constructed from its ``name`` alone available under ``name``."""
-
-    def decorate(factory: Callable[..., FlowEstimator]) -> Callable[..., FlowEstimator]:
-        _FACTORIES[name] = factory
-        return factory
-
-    return decorate
-
-
 def available_methods() -> list[str]:
     """Names of every registered method (some may need weights or optional packages to run)."""
-    _load_classical_methods()
     return sorted(set(_FACTORIES) | set(_LEARNED))
 
 
 def create_estimator(name: str, weights: str | None = None, device: str = "cpu") -> FlowEstimator:
     """The estimator called ``name``; learned methods need ``weights`` (a local checkpoint path)."""
-    _load_classical_methods()
     if name in _LEARNED:
         module, attribute = _LEARNED[name].split(":")
         return getattr(importlib.import_module(module), attribute)(name=name, weights=weights, device=device)
@@ -60,6 +50,3 @@ def create_estimator(name: str, weights: str | None = None, device: str = "cpu")
         raise FlowvoError(f"unknown flow method {name!r}; choose one of {', '.join(available_methods())}")
     return _FACTORIES[name](name=name)
 
-
-def _load_classical_methods() -> None:
-    from flowvo.flow import classical  # noqa: F401  (registration side effect)

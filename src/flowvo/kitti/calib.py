@@ -1,4 +1,9 @@
-"""KITTI ``calib.txt``: projection matrices P0..P3 (3x4, pixels) and the optional velodyne ``Tr``."""
+"""KITTI ``calib.txt``: projection matrices P0..P3 (3x4, pixels) and the optional velodyne ``Tr``.
+
+flowvo also reads three optional lines that describe the camera beyond KITTI's: ``distortion_model: NAME``
+(default plumb_bob, or rational_polynomial for 8 numbers), ``distortion: k1 k2 p1 p2 [k3 ...]`` and
+``camera_height_m: H`` (metres above the road), and writes them for cameras that have them.
+"""
 
 from __future__ import annotations
 
@@ -7,9 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height
 from flowvo.errors import FlowvoError
 
 REQUIRED_KEYS = ("P0",)
+CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m")
 
 
 @dataclass(frozen=True)
@@ -17,6 +24,8 @@ class Calibration:
     """Projection matrices by name ("P0".."P3", optionally "Tr"), each (3, 4)."""
 
     matrices: dict[str, np.ndarray] = field(default_factory=dict)
+    distortion: LensDistortion = NO_DISTORTION
+    camera_height_m: float | None = None
 
     @property
     def K0(self) -> np.ndarray:
@@ -38,6 +47,7 @@ def read_calibration(path: str | Path) -> Calibration:
     if not path.is_file():
         raise FlowvoError("calibration file not found", path)
     matrices: dict[str, np.ndarray] = {}
+    extras: dict[str, tuple[int, str]] = {}
     with open(path, encoding="utf-8", errors="replace") as handle:  # binary bytes then fail as text, per line
         for line_number, line in enumerate(handle, start=1):
             if not line.strip():
@@ -45,6 +55,9 @@ def read_calibration(path: str | Path) -> Calibration:
             name, sep, rest = line.partition(":")
             if not sep:
                 raise FlowvoError("expected 'NAME: 12 numbers'", path, line_number)
+            if name.strip() in CAMERA_KEYS:
+                extras[name.strip()] = (line_number, rest.strip())
+                continue
             try:
                 values = [float(v) for v in rest.split()]
             except ValueError:
@@ -55,7 +68,35 @@ def read_calibration(path: str | Path) -> Calibration:
     missing = [key for key in REQUIRED_KEYS if key not in matrices]
     if missing:
         raise FlowvoError(f"missing {', '.join(missing)}", path)
-    return Calibration(matrices)
+    return Calibration(matrices, *_camera_lines(extras, path))
+
+
+def _camera_lines(extras: dict[str, tuple[int, str]], path: Path) -> tuple[LensDistortion, float | None]:
+    """The lens distortion and camera height of the optional camera lines."""
+    numbers: dict[str, list[float]] = {}
+    for key in ("distortion", "camera_height_m"):
+        if key in extras:
+            line_number, text = extras[key]
+            try:
+                numbers[key] = [float(v) for v in text.split()]
+            except ValueError:
+                raise FlowvoError(f"{key}: expected numbers, found text", path, line_number) from None
+    distortion = NO_DISTORTION
+    if "distortion" in numbers:
+        coefficients = numbers["distortion"]
+        default_model = "rational_polynomial" if len(coefficients) == 8 else "plumb_bob"
+        line_number, model = extras.get("distortion_model", (extras["distortion"][0], default_model))
+        try:
+            distortion = LensDistortion(model or default_model, tuple(coefficients))
+        except FlowvoError as error:
+            raise FlowvoError(str(error), path, line_number) from None
+    height_m = None
+    if "camera_height_m" in numbers:
+        line_number, _ = extras["camera_height_m"]
+        if len(numbers["camera_height_m"]) != 1:
+            raise FlowvoError("camera_height_m: expected one number (metres)", path, line_number)
+        height_m = check_camera_height(numbers["camera_height_m"][0], f"{path}:{line_number}")
+    return distortion, height_m
 
 
 def format_calibration(calibration: Calibration) -> str:
@@ -63,4 +104,9 @@ def format_calibration(calibration: Calibration) -> str:
     lines = []
     for name, matrix in calibration.matrices.items():
         lines.append(f"{name}: " + " ".join(f"{v:.12e}" for v in matrix.reshape(-1)))
+    if not calibration.distortion.is_none:
+        lines.append(f"distortion_model: {calibration.distortion.model}")
+        lines.append("distortion: " + " ".join(f"{v:.12e}" for v in calibration.distortion.coefficients))
+    if calibration.camera_height_m is not None:
+        lines.append(f"camera_height_m: {calibration.camera_height_m:.6f}")
     return "\n".join(lines) + "\n"

@@ -16,8 +16,8 @@ import torch
 from flowvo.atomic import atomic_path
 from flowvo.errors import FlowvoError
 from flowvo.model.config import ModelConfig
-from flowvo.model.data import Normalization
 from flowvo.model.network import OdometryNet
+from flowvo.model.preprocess import Normalization
 
 FORMAT = "flowvo-odometry-v1"
 RUNNABLE_KEYS = ("model_config", "normalization", "model_state")

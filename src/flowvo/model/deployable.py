@@ -15,8 +15,8 @@ from torch import nn
 
 from flowvo.geometry import TARGET_NAMES, mirror_targets
 from flowvo.model.checkpoint import load_model
-from flowvo.model.data import Normalization, mirror_input
 from flowvo.model.network import OdometryNet
+from flowvo.model.preprocess import Normalization, mirror_input
 
 
 class DeployableOdometry(nn.Module):
@@ -24,7 +24,7 @@ class DeployableOdometry(nn.Module):
 
     Input: K consecutive flow fields, oldest first, channels (u, v) per field, u right, v down, in pixels
     of the network input (h, w) = ``input_hw``: the flow already centred on the principal point column
-    and resized, exactly as :func:`flowvo.model.data.resize_flow` returns it. Output: the motion from the
+    and resized, exactly as :func:`flowvo.model.preprocess.resize_flow` returns it. Output: the motion from the
     last field's first frame to its second, components ``output_names`` (planar: distance m and heading
     change rad, positive turning right; se3: translation m then axis-angle rad, camera frame of the first
     frame).

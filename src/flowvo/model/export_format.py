@@ -26,7 +26,7 @@ def describe(model: DeployableOdometry, training: dict) -> dict:
             "name": INPUT_NAME, "shape": ["batch", 2 * model.stack, h, w], "dtype": "float32", "units": "px",
             "layout": "K flow fields oldest first, channels (u right, v down) per field, in pixels of the "
                       "network input: the flow centred on the principal point column and resized to (h, w) "
-                      "with its values rescaled, as flowvo.model.data.resize_flow returns it",
+                      "with its values rescaled, as flowvo.model.preprocess.resize_flow returns it",
         },
         "output": {
             "name": OUTPUT_NAME, "shape": ["batch", len(model.output_names)], "dtype": "float32",

@@ -10,9 +10,10 @@ import numpy as np
 import torch
 
 from flowvo.geometry import chain_planar, chain_se3, se3_from_targets
-from flowvo.model.data import Normalization, stacked_input
+from flowvo.model.data import stacked_input
 from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.network import OdometryNet
+from flowvo.model.preprocess import Normalization
 
 
 def predict_targets(model: OdometryNet, normalization: Normalization, flows: torch.Tensor, stack: int,

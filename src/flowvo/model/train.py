@@ -27,10 +27,11 @@ from flowvo.kitti.sequence import KittiSequence
 from flowvo.metrics import kitti_odometry as kitti
 from flowvo.model.checkpoint import check_compatible, read_resumable_checkpoint, save_checkpoint
 from flowvo.model.config import TrainConfig, check_resume_config
-from flowvo.model.data import Normalization, OdometryDataset, load_network_flows, motion_targets
+from flowvo.model.data import OdometryDataset, fit_normalization, load_network_flows, motion_targets
 from flowvo.model.device import check_device
 from flowvo.model.inference import chain_motions, predict_targets
 from flowvo.model.network import OdometryNet
+from flowvo.model.preprocess import Normalization
 from flowvo.outputs import prepare_output_dir
 from flowvo.progress import progress
 from flowvo.trajectory import Trajectory
@@ -136,7 +137,7 @@ def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | No
     _check_targets_move(train_targets, config.train_sequences, config)
     val_flows, _, val_poses, _ = load_split(config, config.val_sequences)
     normalization = (Normalization.from_dict(state["normalization"]) if state else
-                     Normalization.fit(train_targets, train_flows, config.model.head, config.mirror))
+                     fit_normalization(train_targets, train_flows, config.model.head, config.mirror))
     dataset = OdometryDataset(train_flows, train_targets, normalization, config.model.head, config.model.stack,
                               config.mirror)
     sampler = DistributedSampler(dataset, num_replicas=world, rank=rank, shuffle=True, seed=config.seed)

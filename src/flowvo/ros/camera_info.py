@@ -1,8 +1,9 @@
 """Pinhole intrinsics from a sensor_msgs/CameraInfo message (ROS 1 field names K, P or ROS 2 k, p).
 
 ROS semantics (image_geometry): ``K`` describes the raw, distorted image; ``P`` (its left 3x3) the rectified
-image that image_proc publishes as ``image_rect*``. flowvo does not undistort, so frames from a rectified
-topic use P and frames from any other topic use K; their distortion ``D`` is ignored.
+image that image_proc publishes as ``image_rect*``. Frames from a rectified topic use P and no distortion;
+frames from any other topic use K and the distortion ``D`` of ``distortion_model`` (plumb_bob,
+rational_polynomial, equidistant), which flowvo removes.
 """
 
 from __future__ import annotations
@@ -11,7 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from flowvo.camera import CameraIntrinsics
+from flowvo.camera import NO_DISTORTION, CameraIntrinsics, LensDistortion
+from flowvo.errors import FlowvoError
 
 CAMERA_INFO_TYPE = "sensor_msgs/msg/CameraInfo"
 
@@ -46,3 +48,18 @@ def camera_info_intrinsics(msg: Any, rectified: bool, image_size_hw: tuple[int, 
 def _field(msg: Any, name: str) -> Any:
     """A matrix field by its ROS 2 (lower-case) or ROS 1 (upper-case) name."""
     return getattr(msg, name) if hasattr(msg, name) else getattr(msg, name.upper())
+
+
+def camera_info_distortion(msg: Any, rectified: bool) -> LensDistortion:
+    """The lens distortion of the images ``msg`` describes: none for rectified images, else ``D`` of
+    ``distortion_model`` (an empty ``D`` is no distortion)."""
+    if rectified:
+        return NO_DISTORTION
+    coefficients = tuple(float(v) for v in np.asarray(_field(msg, "d"), dtype=np.float64).ravel())
+    model = str(getattr(msg, "distortion_model", "") or "plumb_bob")
+    if model == "rational_polynomial" and len(coefficients) > 8:
+        coefficients = coefficients[:8]
+    try:
+        return LensDistortion(model, coefficients)
+    except FlowvoError as error:
+        raise CameraInfoError(f"CameraInfo D: {error}") from None

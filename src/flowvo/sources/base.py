@@ -1,4 +1,4 @@
-"""What every frame source provides: grey frames with timestamps, the camera intrinsics, a name.
+"""What every frame source provides: grey frames with timestamps, its own camera description, a name.
 
 A source is consumed once, in order, frame by frame (``frames()``), so a video or a bag never has to fit
 in memory. Optional ground truth lets ``flowvo run`` evaluate what it can.
@@ -12,7 +12,7 @@ from typing import Protocol
 
 import numpy as np
 
-from flowvo.camera import CameraIntrinsics
+from flowvo.camera import Camera
 from flowvo.trajectory import Trajectory
 
 
@@ -20,7 +20,8 @@ class FrameSource(Protocol):
     """A drive to run odometry on.
 
     ``name``: used for output files (``NAME.txt``, ``NAME.tum``); a plain name, never a path.
-    ``intrinsics``: of the frames as ``frames()`` yields them.
+    ``camera``: what the drive itself says of its camera (KITTI calib.txt, a ROS CameraInfo), in pixels of
+    the frames as ``frames()`` yields them; None when it says nothing (a video).
     ``image_size_hw``: (height, width) of every frame.
     ``frame_count``: number of frames when known in advance (None for streams of unknown length).
     ``ground_truth``: camera-to-world poses per frame when the source has them, else None.
@@ -30,7 +31,7 @@ class FrameSource(Protocol):
     """
 
     name: str
-    intrinsics: CameraIntrinsics
+    camera: Camera | None
     image_size_hw: tuple[int, int]
     frame_count: int | None
     ground_truth: Trajectory | None

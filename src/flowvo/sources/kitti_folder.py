@@ -7,13 +7,14 @@ from functools import cached_property
 
 import numpy as np
 
-from flowvo.camera import CameraIntrinsics
+from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.trajectory import Trajectory
 
 
 class KittiFolderSource:
-    """Frames ``image_0`` of ``ROOT/sequences/NAME`` with the intrinsics of its calib.txt (P0)."""
+    """Frames ``image_0`` of ``ROOT/sequences/NAME`` with the camera of its calib.txt (P0, and the optional
+    distortion and camera height lines)."""
 
     def __init__(self, sequence: KittiSequence) -> None:
         self.sequence = sequence
@@ -24,9 +25,11 @@ class KittiFolderSource:
         sequence.require_frames(2, "odometry")
 
     @cached_property
-    def intrinsics(self) -> CameraIntrinsics:
-        """From P0 of the sequence's calib.txt."""
-        return CameraIntrinsics.from_matrix(self.sequence.calibration.K0)
+    def camera(self) -> Camera:
+        """From the sequence's calib.txt."""
+        calibration = self.sequence.calibration
+        return Camera(CameraIntrinsics.from_matrix(calibration.K0), calibration.distortion,
+                      calibration.camera_height_m, "kitti")
 
     @cached_property
     def ground_truth(self) -> Trajectory | None:

@@ -16,11 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from flowvo.camera import CameraIntrinsics
+from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.errors import FlowvoError
 from flowvo.ros.camera_info import (
     CAMERA_INFO_TYPE,
     CameraInfoError,
+    camera_info_distortion,
     camera_info_intrinsics,
     is_rectified_topic,
 )
@@ -34,7 +35,6 @@ from flowvo.ros.images import (
     raw_image_size_hw,
 )
 from flowvo.sources.base import safe_source_name
-from flowvo.sources.intrinsics import check_intrinsics
 from flowvo.trajectory import Trajectory
 
 BAG_FILE_SUFFIXES = (".bag", ".mcap", ".db3")
@@ -53,13 +53,13 @@ class BagSource:
     ground_truth: Trajectory | None = None
     is_synthetic: bool = False
 
-    def __init__(self, path: Path, topic: str, message_type: str, name: str, intrinsics: CameraIntrinsics,
+    def __init__(self, path: Path, topic: str, message_type: str, name: str, camera: Camera | None,
                  image_size_hw: tuple[int, int], timestamps_s: np.ndarray) -> None:
         self.path = path
         self.topic = topic
         self.message_type = message_type
         self.name = name
-        self.intrinsics = intrinsics
+        self.camera = camera
         self.image_size_hw = image_size_hw
         self.timestamps_s = timestamps_s
         self.frame_count: int | None = len(timestamps_s)
@@ -94,13 +94,14 @@ def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None 
         message_type = _topic_type(reader, bag, topic, IMAGE_TYPES, "image")
         stamps_ns, image_size_hw = _scan_images(reader, bag, topic, message_type)
         if camera_info_topic is not None:
-            intrinsics = _camera_info(reader, bag, camera_info_topic, is_rectified_topic(topic), image_size_hw)
+            camera = _camera_info(reader, bag, camera_info_topic, is_rectified_topic(topic), image_size_hw)
         elif intrinsics is None:
             raise FlowvoError("no camera intrinsics: give --camera-info-topic (CameraInfo topics in the bag: "
                               f"{_list_topics(reader, (CAMERA_INFO_TYPE,))}), --calib or --fx/--fy/--cx/--cy", bag)
-    check_intrinsics(intrinsics, image_size_hw, f"{bag}: {camera_info_topic}" if camera_info_topic else str(bag))
+        else:
+            camera = None  # the given intrinsics describe it
     name = safe_source_name(bag.name if bag.is_dir() else bag.stem, "bag")  # a ROS 2 bag is a folder
-    return BagSource(bag, topic, message_type, name, intrinsics, image_size_hw,
+    return BagSource(bag, topic, message_type, name, camera, image_size_hw,
                      np.asarray(stamps_ns, dtype=np.int64) / 1e9)
 
 
@@ -201,12 +202,14 @@ def _scan_images(reader: Any, bag: Path, topic: str, message_type: str) -> tuple
 
 
 def _camera_info(reader: Any, bag: Path, topic: str, rectified: bool, image_size_hw: tuple[int, int]
-                 ) -> CameraIntrinsics:
-    """Intrinsics from the first message of the CameraInfo ``topic`` (see ``camera_info_intrinsics``)."""
+                 ) -> Camera:
+    """The camera of the first message of the CameraInfo ``topic`` (see ``camera_info_intrinsics`` and
+    ``camera_info_distortion``)."""
     _topic_type(reader, bag, topic, (CAMERA_INFO_TYPE,), "CameraInfo")
     with closing(_topic_messages(reader, bag, topic)) as messages:
         _, msg = next(messages)
     try:
-        return camera_info_intrinsics(msg, rectified, image_size_hw)
+        return Camera(camera_info_intrinsics(msg, rectified, image_size_hw), camera_info_distortion(msg, rectified),
+                      source="camera_info")
     except CameraInfoError as error:
         raise FlowvoError(f"{topic}: {error}", bag) from None

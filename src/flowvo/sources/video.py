@@ -1,10 +1,11 @@
 """Frames of a video file, in any container and codec OpenCV reads, converted to grey.
 
-``open_video_source`` validates before any output exists: the file exists, intrinsics are given, OpenCV
-opens the file, its first frame decodes, and the principal point lies inside the frame. Then:
+``open_video_source`` validates before any output exists: the file exists, OpenCV opens it and its first
+frame decodes. A video carries no camera description: the camera comes from the user (or is estimated).
+Then:
 
 - Images: OpenCV's decoded frames (colour converted to grey with ``cv2.COLOR_BGR2GRAY``), all of the
-  first frame's size; the intrinsics must be in pixels of these frames.
+  first frame's size; intrinsics must be in pixels of these frames.
 - Timestamps: the container's presentation time of each frame (``CAP_PROP_POS_MSEC`` after decoding it),
   in seconds. Where a frame's time is missing or does not increase (raw streams report 0 for every frame;
   a damaged index can repeat a time), it gets the previous time plus one frame interval
@@ -27,10 +28,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flowvo.camera import CameraIntrinsics
+from flowvo.camera import Camera
 from flowvo.errors import FlowvoError
 from flowvo.sources.base import safe_source_name
-from flowvo.sources.intrinsics import check_intrinsics
 from flowvo.trajectory import Trajectory
 
 _log = logging.getLogger(__name__)
@@ -45,12 +45,12 @@ class VideoSource:
 
     ground_truth: Trajectory | None = None
     is_synthetic: bool = False
+    camera: Camera | None = None  # a video carries no camera description
 
-    def __init__(self, path: Path, name: str, intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int],
-                 frame_count: int | None, frame_rate_hz: float | None) -> None:
+    def __init__(self, path: Path, name: str, image_size_hw: tuple[int, int], frame_count: int | None,
+                 frame_rate_hz: float | None) -> None:
         self.path = path
         self.name = name
-        self.intrinsics = intrinsics
         self.image_size_hw = image_size_hw
         self.frame_count = frame_count
         self.frame_rate_hz = frame_rate_hz
@@ -86,18 +86,15 @@ class VideoSource:
                               "states: truncated or damaged file", self.path)
 
 
-def open_video_source(path: str | Path, intrinsics: CameraIntrinsics | None) -> VideoSource:
-    """A validated :class:`VideoSource`; ``intrinsics`` in pixels of the decoded frames (a video carries none).
+def open_video_source(path: str | Path) -> VideoSource:
+    """A validated :class:`VideoSource`.
 
-    Raises a one-line FlowvoError naming the file when it is missing, OpenCV cannot open it, its first
-    frame does not decode, intrinsics are not given, or the principal point lies outside the frame.
+    Raises a one-line FlowvoError naming the file when it is missing, OpenCV cannot open it or its first
+    frame does not decode.
     """
     path = Path(path)
     if not path.is_file():
         raise FlowvoError("video file not found", path)
-    if intrinsics is None:
-        raise FlowvoError("a video carries no camera intrinsics: give --calib CALIB.txt or --fx --fy --cx --cy "
-                          "(in pixels of the video frames)", path)
     capture = _open_capture(path)
     try:
         ok, frame = capture.read()
@@ -108,8 +105,7 @@ def open_video_source(path: str | Path, intrinsics: CameraIntrinsics | None) -> 
     if not ok:
         raise FlowvoError("the first frame does not decode (empty, truncated or damaged video)", path)
     image_size_hw = _grey(frame).shape
-    check_intrinsics(intrinsics, image_size_hw, str(path))
-    return VideoSource(path, safe_source_name(path.stem, "video"), intrinsics, image_size_hw,
+    return VideoSource(path, safe_source_name(path.stem, "video"), image_size_hw,
                        frame_count if frame_count > 0 else None,
                        frame_rate_hz if math.isfinite(frame_rate_hz) and frame_rate_hz > 0 else None)
 

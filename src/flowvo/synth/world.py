@@ -12,9 +12,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from flowvo.camera import KITTI_CAMERA_HEIGHT_M
 from flowvo.synth.sampling import sample_points
 
-CAMERA_HEIGHT_M = 1.65
 GRID_RESOLUTION_M = 0.5
 GRID_MARGIN_M = 160.0
 SCENE_TYPES = ("urban", "suburban", "open")
@@ -124,7 +124,7 @@ def build_world(T_world_cam: np.ndarray, seed: int, scene: str | None = None) ->
     undulation = 2.5 * cv2.GaussianBlur(rng.normal(size=shape).astype(np.float32), (0, 0), 60.0)
     undulation /= max(float(np.abs(undulation).max()), 1e-6) / 3.0
     blend = np.clip((distance - 12.0) / 60.0, 0.0, 1.0)
-    ground = path[nearest, 1] + CAMERA_HEIGHT_M - blend * undulation  # hills rise away from the road
+    ground = path[nearest, 1] + KITTI_CAMERA_HEIGHT_M - blend * undulation  # hills rise away from the road
     ground = cv2.GaussianBlur(ground.astype(np.float32), (0, 0), 2.0)
     starts, kinds = scene_schedule(seed, along[-1], scene)
     scene_index = kinds[np.searchsorted(starts, along_grid, side="right").clip(1) - 1].astype(np.float32)

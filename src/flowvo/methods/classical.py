@@ -1,9 +1,10 @@
-"""Classical monocular baseline: KLT-tracked corners, essential matrix with RANSAC, recoverPose.
+"""``classical``: the sparse baseline. KLT-tracked corners at full resolution, essential matrix with
+RANSAC, recoverPose.
 
 Monocular VO has no metric scale. Two protocols: ``gt`` takes each step's length from the ground truth
-(the usual protocol for evaluating monocular methods on KITTI), ``height`` recovers it from the known
-camera height above the road (KITTI: 1.65 m) by fitting the ground plane to triangulated points below
-the horizon, as VISO2-M does.
+(the usual protocol for evaluating monocular methods on KITTI, labelled so), ``height`` recovers it from
+the camera height above the road by the median height of triangulated points below the horizon, as
+VISO2-M does. Lens distortion is removed from the tracked points.
 """
 
 from __future__ import annotations
@@ -11,9 +12,9 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from flowvo.camera import Camera, undistort_points
 from flowvo.geometry import invert_se3
 
-CAMERA_HEIGHT_M = 1.65
 MIN_TRACKS = 30
 STILL_FLOW_PX = 0.3
 
@@ -69,8 +70,9 @@ class ClassicalTracker:
     metric scale from ``step_lengths_m`` (GT protocol, step i = frame i -> i+1) or, when None, from the
     camera height."""
 
-    def __init__(self, K: np.ndarray, step_lengths_m: np.ndarray | None) -> None:
+    def __init__(self, K: np.ndarray, step_lengths_m: np.ndarray | None, camera_height_m: float) -> None:
         self.K = K
+        self.camera_height_m = camera_height_m
         self.step_lengths_m = step_lengths_m
         self.index = 0
         self.last_scale = 1.0
@@ -94,7 +96,7 @@ class ClassicalTracker:
                 scale = self.step_lengths_m[self.index]
             else:
                 height = ground_height_unit(p0[inliers], p1[inliers], motion, self.K, image_hw)
-                scale = CAMERA_HEIGHT_M / height if height and height > 1e-3 else self.last_scale
+                scale = self.camera_height_m / height if height and height > 1e-3 else self.last_scale
                 scale = float(np.clip(scale, 0.0, 4.0))
                 self.last_scale = scale
             motion = motion.copy()
@@ -102,3 +104,40 @@ class ClassicalTracker:
         self.last_motion = motion
         self.index += 1
         return motion
+
+
+class ClassicalStep:
+    """The baseline as a per-frame step: full-resolution frames, KLT tracks (undistorted), the tracker's
+    motion; camera-height scale, or the ground-truth step lengths (labelled so) when ``gt_step_lengths_m``
+    is given."""
+
+    motion_stage = "geometry"
+    opencv_threads: int | None = None
+
+    def __init__(self, camera: Camera, gt_step_lengths_m: np.ndarray | None = None) -> None:
+        self.camera = camera
+        self.tracker = ClassicalTracker(camera.K, gt_step_lengths_m, camera.camera_height_m)
+        self.scale_source = "gt" if gt_step_lengths_m is not None else "height"
+        self.label = "classical (KLT + essential matrix, " + (
+            "GT scale)" if gt_step_lengths_m is not None else "camera-height scale)")
+
+    def prepare(self, image: np.ndarray) -> np.ndarray:
+        """Full-resolution frames."""
+        return image
+
+    def flow(self, previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """KLT corner tracks, in undistorted pixels."""
+        tracks = self.tracker.tracks(previous, current)
+        if self.camera.distortion.is_none:
+            return tracks
+        return tuple(undistort_points(points, self.camera.K, self.camera.distortion).astype(np.float64)
+                     for points in tracks)
+
+    def motion(self, times_s: tuple[float, float], previous: np.ndarray, flow: tuple[np.ndarray, np.ndarray]
+               ) -> np.ndarray:
+        """``T_prev_cur`` from the tracks."""
+        return self.tracker.motion(flow, previous.shape)
+
+    def summary(self) -> dict:
+        """Where the metric scale came from."""
+        return {"scale_source": self.scale_source}

@@ -3,16 +3,9 @@
 import numpy as np
 import pytest
 
-from flowvo.flow_geometry import (
-    EssentialMotion,
-    essential_motion,
-    fit_road_plane,
-    road_grid,
-    road_step_length_m,
-    textured_points,
-    triangulate,
-)
 from flowvo.geometry import so3_exp
+from flowvo.road_scale import fit_road_plane, road_grid, road_step_length_m
+from flowvo.two_view import EssentialMotion, essential_motion, textured_points, triangulate
 
 K = np.array([[350.0, 0.0, 300.0], [0.0, 350.0, 92.0], [0.0, 0.0, 1.0]])
 HEIGHT_M = 1.65

@@ -1,0 +1,1 @@
+"""Camera calibration: reading and writing calibration files, and calibrating from a checkerboard."""

@@ -1,0 +1,227 @@
+"""Camera calibration files, whatever tool wrote them, read into one :class:`CameraFile`.
+
+Kinds (recognised by their content, not their name):
+- KITTI ``calib.txt``: ``P0: 12 numbers`` (pinhole); flowvo also reads optional ``distortion_model: NAME``,
+  ``distortion: k1 k2 ...`` and ``camera_height_m: H`` lines there.
+- OpenCV ``FileStorage`` YAML or XML (``cv::FileStorage``, ``cv2.FileStorage``): ``camera_matrix``,
+  ``distortion_coefficients`` (4, 5 or 8: plumb-bob or rational), optional ``distortion_model``,
+  ``image_width``/``image_height``, ``camera_height_m``.
+- ROS ``camera_calibration`` / ``camera_info_manager`` YAML: ``camera_matrix.data``, ``distortion_model``,
+  ``distortion_coefficients.data``, ``image_width``/``image_height`` (what ``flowvo calibrate`` writes,
+  with ``camera_height_m`` when known).
+- Kalibr camchain YAML: ``cam0: {camera_model: pinhole, intrinsics: [fu, fv, pu, pv], distortion_model:
+  radtan|equidistant|none, distortion_coeffs: [...], resolution: [w, h]}`` (the first camera).
+Numbers are checked where they are read: one line naming the file and what is wrong.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from flowvo.camera import CameraIntrinsics, LensDistortion, check_camera_height
+from flowvo.errors import FlowvoError
+
+MAX_CALIBRATION_BYTES = 1_000_000  # calibration files are a few kB; anything larger is not one
+
+
+@dataclass(frozen=True)
+class CameraFile:
+    """What a calibration file says: intrinsics (pixels), lens distortion, the camera height above the road
+    (metres, when the file has it), the image size (height, width) it was calibrated at (when stated) and
+    the kind of file."""
+
+    intrinsics: CameraIntrinsics
+    distortion: LensDistortion
+    height_m: float | None
+    image_size_hw: tuple[int, int] | None
+    kind: str
+
+
+def read_camera_file(path: str | Path) -> CameraFile:
+    """Read any supported calibration file (see the module docstring)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FlowvoError("calibration file not found", path)
+    if path.stat().st_size > MAX_CALIBRATION_BYTES:
+        raise FlowvoError(f"is {path.stat().st_size} bytes: too large for a calibration file", path)
+    raw = path.read_bytes()
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise FlowvoError("not a calibration file (not UTF-8 text)", path) from None
+    stripped = text.lstrip()
+    try:
+        if stripped.startswith("<?xml") or stripped.startswith("<opencv_storage") \
+                or stripped.startswith("%YAML:") or "!!opencv-matrix" in text:
+            return _opencv_storage(text, path)
+        if _looks_like_kitti(text):
+            return _kitti(path)
+        return _yaml(text, path)
+    except FlowvoError:
+        raise
+    except (ValueError, TypeError, KeyError, IndexError) as error:
+        raise FlowvoError(f"malformed calibration file: {error}", path) from None
+
+
+def _looks_like_kitti(text: str) -> bool:
+    first = next((line for line in text.splitlines() if line.strip()), "")
+    return first.split(":", 1)[0].strip() in ("P0", "P1", "P2", "P3", "Tr", "K0")
+
+
+def _kitti(path: Path) -> CameraFile:
+    from flowvo.kitti.calib import read_calibration
+
+    calibration = read_calibration(path)
+    intrinsics = CameraIntrinsics.from_matrix(calibration.K0)
+    _check_intrinsics(intrinsics, path)
+    return CameraFile(intrinsics, calibration.distortion, calibration.camera_height_m, None, "kitti calib.txt")
+
+
+def _opencv_storage(text: str, path: Path) -> CameraFile:
+    import cv2
+
+    try:
+        storage = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
+    except cv2.error as error:
+        raise FlowvoError(f"not a readable OpenCV FileStorage file: {str(error).strip().splitlines()[-1]}",
+                          path) from None
+    try:
+        matrix = storage.getNode("camera_matrix")
+        if matrix.empty() or matrix.mat() is None:
+            raise FlowvoError("OpenCV FileStorage file without camera_matrix", path)
+        K = np.asarray(matrix.mat(), dtype=np.float64)
+        if K.shape != (3, 3):
+            raise FlowvoError(f"camera_matrix must be 3x3, got {K.shape[0]}x{K.shape[1]}", path)
+        node = storage.getNode("distortion_coefficients")
+        coefficients = () if node.empty() or node.mat() is None else tuple(np.asarray(node.mat()).ravel())
+        model_node = storage.getNode("distortion_model")
+        model = model_node.string() if not model_node.empty() and model_node.isString() else None
+        size = _size(storage.getNode("image_width").real(), storage.getNode("image_height").real())
+        height_node = storage.getNode("camera_height_m")
+        height = None if height_node.empty() else height_node.real()
+    finally:
+        storage.release()
+    return _camera_file(CameraIntrinsics.from_matrix(K), model, coefficients, height, size, "OpenCV FileStorage", path)
+
+
+def _yaml(text: str, path: Path) -> CameraFile:
+    import yaml
+
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as error:
+        mark = getattr(error, "problem_mark", None)
+        raise FlowvoError(f"not a calibration file: YAML error {getattr(error, 'problem', '') or ''}".rstrip(),
+                          path, mark.line + 1 if mark else None) from None
+    if not isinstance(data, dict):
+        raise FlowvoError("not a calibration file: expected a KITTI calib.txt, an OpenCV FileStorage, a ROS "
+                          "camera_calibration or a Kalibr camchain YAML", path)
+    if "camera_matrix" in data:  # ROS camera_calibration
+        K = np.asarray(_matrix_data(data["camera_matrix"], "camera_matrix", path), dtype=np.float64)
+        if K.size != 9:
+            raise FlowvoError(f"camera_matrix must have 9 numbers, got {K.size}", path)
+        coefficients = data.get("distortion_coefficients") or ()
+        if isinstance(coefficients, dict):
+            coefficients = _matrix_data(coefficients, "distortion_coefficients", path)
+        size = _size(data.get("image_width"), data.get("image_height"))
+        return _camera_file(CameraIntrinsics.from_matrix(K.reshape(3, 3)), data.get("distortion_model"),
+                            tuple(coefficients), data.get("camera_height_m"), size, "ROS camera_calibration", path)
+    cameras = sorted(key for key in data if isinstance(key, str) and key.startswith("cam") and key[3:].isdigit())
+    if cameras:  # Kalibr camchain: the first camera
+        camera = data[cameras[0]]
+        if not isinstance(camera, dict) or "intrinsics" not in camera:
+            raise FlowvoError(f"Kalibr camchain: {cameras[0]} has no intrinsics", path)
+        model = str(camera.get("camera_model", "pinhole"))
+        if model != "pinhole":
+            raise FlowvoError(f"Kalibr camera_model {model!r} is not supported (only pinhole)", path)
+        values = _numbers(camera["intrinsics"], "intrinsics", path)
+        if len(values) != 4:
+            raise FlowvoError(f"Kalibr intrinsics must be [fu, fv, pu, pv], got {len(values)} numbers", path)
+        resolution = camera.get("resolution") or (None, None)
+        size = _size(*resolution) if len(resolution) == 2 else None
+        return _camera_file(CameraIntrinsics(*values), camera.get("distortion_model", "none"),
+                            tuple(camera.get("distortion_coeffs") or ()), camera.get("camera_height_m",
+                                                                                      data.get("camera_height_m")),
+                            size, "Kalibr camchain", path)
+    raise FlowvoError("not a calibration file: no camera_matrix (OpenCV, ROS) and no cam0 (Kalibr)", path)
+
+
+def _matrix_data(node: Any, name: str, path: Path) -> list[float]:
+    if not isinstance(node, dict) or "data" not in node:
+        raise FlowvoError(f"{name} has no 'data' list", path)
+    return _numbers(node["data"], name, path)
+
+
+def _numbers(values: Any, name: str, path: Path) -> list[float]:
+    if not isinstance(values, list | tuple) or not all(isinstance(v, int | float) and not isinstance(v, bool)
+                                                       for v in values):
+        raise FlowvoError(f"{name} must be a list of numbers", path)
+    return [float(v) for v in values]
+
+
+def _size(width: Any, height: Any) -> tuple[int, int] | None:
+    """(height, width) when both are positive whole numbers, else None (not stated)."""
+    try:
+        w, h = float(width), float(height)
+    except (TypeError, ValueError):
+        return None
+    return (int(h), int(w)) if w >= 1 and h >= 1 and w.is_integer() and h.is_integer() else None
+
+
+def _camera_file(intrinsics: CameraIntrinsics, model: Any, coefficients: tuple, height: Any,
+                 size: tuple[int, int] | None, kind: str, path: Path) -> CameraFile:
+    _check_intrinsics(intrinsics, path)
+    coefficients = tuple(_numbers(list(coefficients), "distortion coefficients", path))
+    if model is None:  # OpenCV leaves the model to the count: 4 or 5 plumb-bob, 8 rational
+        model = "rational_polynomial" if len(coefficients) == 8 else "plumb_bob"
+    try:
+        distortion = LensDistortion(str(model), coefficients)
+    except FlowvoError as error:
+        raise FlowvoError(str(error), path) from None
+    height_m = None if height is None else check_camera_height(_number(height, "camera_height_m", path), str(path))
+    return CameraFile(intrinsics, distortion, height_m, size, kind)
+
+
+def _number(value: Any, name: str, path: Path) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise FlowvoError(f"{name} must be a number, got {value!r}", path)
+    return float(value)
+
+
+def _check_intrinsics(intrinsics: CameraIntrinsics, path: Path) -> None:
+    values = (intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)
+    if not all(math.isfinite(v) for v in values) or intrinsics.fx <= 0 or intrinsics.fy <= 0:
+        raise FlowvoError(f"intrinsics must be finite with positive focal lengths, got fx={intrinsics.fx} "
+                          f"fy={intrinsics.fy} cx={intrinsics.cx} cy={intrinsics.cy}", path)
+
+
+def format_ros_calibration(intrinsics: CameraIntrinsics, distortion: LensDistortion, image_size_hw: tuple[int, int],
+                           camera_name: str = "camera", height_m: float | None = None,
+                           rms_px: float | None = None) -> str:
+    """A ROS camera_calibration YAML (what ``camera_info_manager`` and ``flowvo run --calib`` read), with
+    flowvo's optional ``camera_height_m`` and the calibration's RMS reprojection error as extra keys."""
+    import yaml
+
+    h, w = image_size_hw
+    K = intrinsics.K
+    P = np.c_[K, np.zeros(3)]
+    model = "plumb_bob" if distortion.is_none else distortion.model
+    data: dict[str, Any] = {
+        "image_width": int(w), "image_height": int(h), "camera_name": camera_name,
+        "camera_matrix": {"rows": 3, "cols": 3, "data": [float(v) for v in K.ravel()]},
+        "distortion_model": model,
+        "distortion_coefficients": {"rows": 1, "cols": len(distortion.coefficients) or 5,
+                                    "data": list(distortion.coefficients) or [0.0] * 5},
+        "rectification_matrix": {"rows": 3, "cols": 3, "data": [float(v) for v in np.eye(3).ravel()]},
+        "projection_matrix": {"rows": 3, "cols": 4, "data": [float(v) for v in P.ravel()]},
+    }
+    if height_m is not None:
+        data["camera_height_m"] = float(height_m)
+    if rms_px is not None:
+        data["rms_reprojection_error_px"] = float(rms_px)
+    return yaml.safe_dump(data, sort_keys=False)

@@ -1,0 +1,89 @@
+"""The camera of a drive, from what the user gave (a calibration file, ``--fx ...``, ``--dist``,
+``--camera-height``) and what the drive itself says (KITTI calib.txt, a ROS CameraInfo and /tf_static).
+
+Precedence: intrinsics from ``--calib`` or ``--fx --fy --cx --cy`` replace the drive's; distortion from
+``--dist`` replaces the calibration file's, which replaces the drive's; the camera height from
+``--camera-height``, else the calibration file's, else the drive's, else KITTI's 1.65 m (assumed, said so).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from flowvo.camera import Camera, CameraIntrinsics, LensDistortion, check_camera_height
+from flowvo.errors import FlowvoError
+
+MIN_FOCAL_PX = 1.0  # below a pixel no frame is imaged
+MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000 px frame: no odometry
+
+
+@dataclass(frozen=True)
+class GivenCamera:
+    """What the user said about the camera; every part optional. ``source``: "calib" or "flags" (for the
+    intrinsics), ``where``: the file or flags to name in errors."""
+
+    intrinsics: CameraIntrinsics | None = None
+    distortion: LensDistortion | None = None
+    height_m: float | None = None
+    source: str | None = None
+    where: str = "camera flags"
+
+
+def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: float | None, cy: float | None,
+                 distortion: tuple[float, ...] | None = None, distortion_model: str | None = None,
+                 camera_height_m: float | None = None) -> GivenCamera:
+    """Parse the camera flags (one-line errors for partial or conflicting ones)."""
+    numbers = {"--fx": fx, "--fy": fy, "--cx": cx, "--cy": cy}
+    given = [name for name, value in numbers.items() if value is not None]
+    if calib is not None and given:
+        raise FlowvoError(f"give either --calib or {', '.join(given)}, not both")
+    intrinsics, file_distortion, file_height, source, where = None, None, None, None, "camera flags"
+    if calib is not None:
+        from flowvo.calibration.files import read_camera_file
+
+        camera_file = read_camera_file(calib)
+        intrinsics, source, where = camera_file.intrinsics, "calib", calib
+        file_distortion, file_height = camera_file.distortion, camera_file.height_m
+    elif given:
+        missing = [name for name in numbers if name not in given]
+        if missing:
+            raise FlowvoError(f"intrinsics need all of --fx --fy --cx --cy; missing {' '.join(missing)}")
+        intrinsics, source, where = CameraIntrinsics(float(fx), float(fy), float(cx), float(cy)), "flags", \
+            "--fx/--fy/--cx/--cy"  # type: ignore[arg-type]
+    if distortion_model is not None and distortion is None:
+        raise FlowvoError("--distortion-model needs --dist K1 K2 ...")
+    if distortion is not None:
+        file_distortion = LensDistortion(distortion_model or "plumb_bob", tuple(distortion))
+    if camera_height_m is not None:
+        file_height = check_camera_height(camera_height_m, "--camera-height")
+    return GivenCamera(intrinsics, file_distortion, file_height, source, where)
+
+
+def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str) -> Camera:
+    """The camera a drive runs with: ``given`` over the ``drive``'s own, checked against its frames."""
+    if given.intrinsics is None and drive is None:
+        raise FlowvoError("no camera intrinsics: give --calib FILE or --fx --fy --cx --cy (pixels of the frames)",
+                          where)
+    intrinsics = given.intrinsics or drive.intrinsics  # type: ignore[union-attr]
+    distortion = given.distortion or (drive.distortion if drive and given.intrinsics is None else None)
+    height_m = given.height_m if given.height_m is not None else (drive.height_m if drive else None)
+    source = given.source or drive.source  # type: ignore[union-attr]
+    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source)
+    check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)
+    return camera
+
+
+def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int] | None, where: str) -> None:
+    """Refuse focal lengths that are not finite or outside [1, 1e5] px, and a principal point outside the
+    frame (or, with the frame size known, so low that the road below it is not in the frame)."""
+    values = (intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)
+    if not all(math.isfinite(v) for v in values) or min(intrinsics.fx, intrinsics.fy) < MIN_FOCAL_PX \
+            or max(intrinsics.fx, intrinsics.fy) > MAX_FOCAL_PX:
+        raise FlowvoError(f"intrinsics must be finite with focal lengths in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px, "
+                          f"got fx={intrinsics.fx} fy={intrinsics.fy} cx={intrinsics.cx} cy={intrinsics.cy}", where)
+    if image_size_hw is not None:
+        h, w = image_size_hw
+        if not (0 <= intrinsics.cx < w and 0 <= intrinsics.cy < h):
+            raise FlowvoError(f"principal point ({intrinsics.cx}, {intrinsics.cy}) lies outside the {w}x{h} image",
+                              where)

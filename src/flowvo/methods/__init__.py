@@ -1,0 +1,84 @@
+"""The odometry methods: one module each, one row each in :data:`METHODS`, which the CLI choices, the stage
+names of run/bench/report and the docs read from. Adding a method = one module + one row.
+
+Builders import their module only when called, so listing the methods (``flowvo --help``) needs no torch.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from flowvo.errors import FlowvoError
+from flowvo.geometry import planar_targets
+
+if TYPE_CHECKING:
+    from flowvo.camera import Camera
+    from flowvo.drive import RunOptions
+    from flowvo.methods.base import OdometryStep
+    from flowvo.sources.base import FrameSource
+
+
+@dataclass(frozen=True)
+class Method:
+    """A method by name: one line for ``--help`` and the docs, the per-frame stages it has (for timing
+    tables), and how to build its per-frame step for a drive."""
+
+    name: str
+    summary: str
+    stages: tuple[str, ...]
+    build: Callable[[RunOptions, FrameSource, Camera], OdometryStep]
+
+
+def _flowvo(with_network: bool) -> Callable[..., Any]:
+    def build(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
+        from flowvo.methods.cnn import load_cnn_step
+        from flowvo.methods.flowvo import DEFAULT_ROAD_FLOW_METHOD, FlowGeometryStep
+
+        fallback = load_cnn_step(camera, source.image_size_hw, options.model) if with_network else None
+        return FlowGeometryStep(camera, source.image_size_hw, flow_method=options.flow_method or
+                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback)
+    return build
+
+
+def _cnn(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
+    from flowvo.methods.cnn import load_cnn_step
+
+    return load_cnn_step(camera, source.image_size_hw, options.model, options.flow_method)
+
+
+def _classical(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
+    from flowvo.methods.classical import ClassicalStep
+
+    steps = None
+    if options.classical_scale == "gt":
+        if source.ground_truth is None:
+            raise FlowvoError("--scale-from gt needs ground-truth poses, and this drive has none")
+        steps = planar_targets(source.ground_truth.T_world_cam)[:, 0]
+    return ClassicalStep(camera, steps)
+
+
+_GEOMETRY_STAGES = ("image_read", "flow", "geometry", "chaining")  # flowvo's rare network fallback is geometry
+METHODS: dict[str, Method] = {method.name: method for method in (
+    Method("flowvo", "default: tracked points + dense road flow, road-plane scale from the camera height, the "
+                     "packaged network where no road is seen", _GEOMETRY_STAGES, _flowvo(with_network=True)),
+    Method("flowvo-geometry", "the default without the network", _GEOMETRY_STAGES, _flowvo(with_network=False)),
+    Method("cnn", "the thesis network (--model, default the packaged one) on the flow field",
+           ("image_read", "flow", "network", "chaining"), _cnn),
+    Method("classical", "KLT corners + essential matrix, camera-height scale (or --scale-from gt)",
+           _GEOMETRY_STAGES, _classical),
+)}
+DEFAULT_METHOD = "flowvo"
+
+
+def method(name: str) -> Method:
+    """The method called ``name``; a one-line error naming the choices otherwise."""
+    if name not in METHODS:
+        raise FlowvoError(f"unknown method {name!r}; choose one of {', '.join(METHODS)}")
+    return METHODS[name]
+
+
+def methods_help() -> str:
+    """One sentence per method for ``--help``."""
+    return "; ".join(f"{m.name}: {m.summary}" for m in METHODS.values())

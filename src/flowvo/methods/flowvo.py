@@ -1,0 +1,141 @@
+"""``flowvo`` (the default) and ``flowvo-geometry``: geometry where geometry is strong, the network where
+it is not.
+
+Rotation and translation direction come from an essential matrix fitted to textured points tracked over
+the whole frame (pyramidal Lucas-Kanade); the metric step length from the road plane, triangulated from
+the dense DIS flow of the road ahead at the working resolution and the camera height
+(:mod:`flowvo.road_scale`), filtered by a smooth-speed prior (:mod:`flowvo.speed_prior`); standstill when
+the road and the scene move less than half a pixel. Where no trustworthy road plane has been seen for a
+while, the packaged network's distance stands in (``flowvo``; ``flowvo-geometry`` has no network). Lens
+distortion is removed from the tracked and road points, not from whole frames. No ground truth enters it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flowvo.camera import Camera, undistort_points
+from flowvo.errors import FlowvoError
+from flowvo.flow.registry import create_estimator
+from flowvo.geometry import invert_se3
+from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
+from flowvo.methods.cnn import CnnStep
+from flowvo.road_scale import NetworkFallbackPolicy, road_crop, road_grid, road_step_length_m
+from flowvo.speed_prior import SpeedPrior
+from flowvo.two_view import essential_motion, follow_flow, se3_next_prev, textured_points, track_points
+
+DEFAULT_ROAD_FLOW_METHOD = "dis-medium-fine"  # DIS down to the working resolution: the presets' road flow
+# (one pyramid level short) made every step 3-6 % short on real KITTI
+DEFAULT_WORKING_WIDTH = 620  # KITTI at half width: the road's flow is fine enough, the step runs at 100 frames/s
+STILL_FLOW_PX = 0.5  # at the reference width: below this median motion of road and scene, the car stands still
+ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (LK tracks are sub-pixel)
+
+
+@dataclass(frozen=True)
+class GeometryFrame:
+    """A working frame of the default method with its textured points and the tracks of the previous
+    frame's textured points into it (computed once per frame, in order, in the reader thread; empty for
+    the first frame); pixels of the (distorted) working frame."""
+
+    image: np.ndarray
+    textured_px: np.ndarray
+    tracked_prev: np.ndarray
+    tracked_next: np.ndarray
+
+
+@dataclass(frozen=True)
+class GeometryFlow:
+    """What the default method measures between two working frames, in undistorted pixels: ``motion_prev``
+    -> ``motion_next`` (M, 2) tracked textured points for the rotation and translation direction, and
+    ``road_prev`` -> ``road_next`` (R, 2) road-band points moved by the dense flow field of the road crop."""
+
+    motion_prev: np.ndarray
+    motion_next: np.ndarray
+    road_prev: np.ndarray
+    road_next: np.ndarray
+    current: np.ndarray  # the current working frame, for the network's fallback distance
+
+
+class FlowGeometryStep(WorkingFrames):
+    """The default method (see the module docstring); with a ``fallback`` network it is ``flowvo``, without
+    ``flowvo-geometry``."""
+
+    motion_stage = "geometry"
+    opencv_threads: int | None = 1  # its stages balance across the stream's two threads
+
+    def __init__(self, camera: Camera, image_size_hw: tuple[int, int],
+                 flow_method: str = DEFAULT_ROAD_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
+                 fallback: CnnStep | None = None) -> None:
+        super().__init__(camera, image_size_hw, working_width)
+        name = "flowvo" if fallback else "flowvo-geometry"
+        self.label = f"{name} ({flow_method} road flow, geometry" + (", network fallback)" if fallback else ")")
+        if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
+            raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
+        self.fallback = fallback
+        self.fallback_policy = NetworkFallbackPolicy()
+        self.estimator = create_estimator(flow_method)
+        self.camera_height_m = self.camera.camera_height_m
+        self.crop = road_crop(self.working_hw, self.K)
+        crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
+        if min(crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
+            raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
+                              f"method: its road crop is {crop_hw[1]}x{crop_hw[0]} px, the flow needs at least "
+                              f"{MIN_FLOW_SIDE_PX} px a side (frames at least 90 px high and 64 px wide work)")
+        self.road_px = road_grid(self.working_hw, self.K)
+        self.road_px_undistorted = self._undistort(self.road_px)
+        self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
+        self.still_flow_px = STILL_FLOW_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
+        self.threshold_px = ESSENTIAL_THRESHOLD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
+        self.speed = SpeedPrior()
+        self.last_motion = np.eye(4)
+        self._previous: GeometryFrame | None = None
+
+    def _undistort(self, points_px: np.ndarray) -> np.ndarray:
+        return undistort_points(points_px, self.K, self.camera.distortion)
+
+    def prepare(self, image: np.ndarray) -> GeometryFrame:
+        """The working frame, its textured points and the tracks from the previous frame (tracking here
+        balances the reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07)."""
+        working = super().prepare(image)
+        tracked = (np.zeros((0, 2), np.float32),) * 2
+        if self._previous is not None:
+            tracked = track_points(self._previous.image, working, self._previous.textured_px)
+        self._previous = GeometryFrame(working, textured_points(working), *tracked)
+        return self._previous
+
+    def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
+        """Point tracks over the whole frame (from ``prepare``) and the dense flow of the road crop."""
+        road_flow = self.estimator.estimate(np.ascontiguousarray(previous.image[self.crop]),
+                                            np.ascontiguousarray(current.image[self.crop]))
+        road_next = follow_flow(self.road_px - self.crop_origin, road_flow) + self.crop_origin
+        return GeometryFlow(self._undistort(current.tracked_prev), self._undistort(current.tracked_next),
+                            self.road_px_undistorted, self._undistort(road_next), current.image)
+
+    def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
+        """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
+        time_s, dt_s = times_s[1], times_s[1] - times_s[0]
+        moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
+        road_moved_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
+        if np.median(road_moved_px) < self.still_flow_px and (not len(moved_px) or
+                                                              np.median(moved_px) < self.still_flow_px):
+            self.speed.stop(time_s)  # the road and the scene stand still (distant points alone can mislead)
+            self.last_motion = np.eye(4)
+            return self.last_motion
+        fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)
+        if fit is None:  # degenerate: keep the last motion (constant velocity)
+            return self.last_motion
+        step_m = road_step_length_m(flow.road_prev, flow.road_next, self.K, fit, self.camera_height_m)
+        if step_m is not None:
+            self.fallback_policy.road_seen(time_s)
+        elif self.fallback is not None and self.fallback_policy.network_needed(time_s):
+            step_m = self.fallback.distance_m(previous.image, flow.current)  # the speed prior alone would drift
+        speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
+        step_m = 0.0 if speed_mps is None else speed_mps * dt_s
+        self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
+        return self.last_motion
+
+    def summary(self) -> dict:
+        """How many steps took the network's distance (no trustworthy road plane for a while)."""
+        return {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
