@@ -22,6 +22,8 @@ def textured_points(image: np.ndarray, count: int = 600, cell_px: int = 8) -> np
     gx = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3)
     magnitude = gx * gx + gy * gy
+    if image.min() == 0:  # the edge of an area without image would be tracked as a point that never moves
+        magnitude[no_image_area(image)] = 0.0
     rows, cols = (h - 8) // cell_px, (w - 8) // cell_px
     cells = magnitude[4 : 4 + rows * cell_px, 4 : 4 + cols * cell_px]
     cells = cells.reshape(rows, cell_px, cols, cell_px).transpose(0, 2, 1, 3).reshape(rows, cols, -1)
@@ -31,6 +33,15 @@ def textured_points(image: np.ndarray, count: int = 600, cell_px: int = 8) -> np
     r, c = np.unravel_index(order, strength.shape)
     b = best[r, c]
     return np.stack([4 + c * cell_px + b % cell_px, 4 + r * cell_px + b // cell_px], axis=1).astype(np.float32)
+
+
+def no_image_area(image: np.ndarray, margin_px: int = 6) -> np.ndarray:
+    """True (H, W) within ``margin_px`` of an area without image: black (0) regions larger than a single
+    pixel, as the borders of undistorted, letterboxed or lens-warped frames (a dark real scene rarely
+    reaches 0 over several pixels)."""
+    black = (image == 0).astype(np.uint8)
+    black = cv2.morphologyEx(black, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    return cv2.dilate(black, np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)) > 0
 
 
 def track_points(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
