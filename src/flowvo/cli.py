@@ -438,7 +438,9 @@ SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
 
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every sub-command."""
-    parser = _Parser(prog="flowvo", description="Learned visual odometry from dense optical flow.")
+    parser = _Parser(prog="flowvo", description="Geometry-first monocular visual odometry from dense optical flow, "
+                     "with metric scale from the road and the camera height; the thesis network by name "
+                     "(--method cnn).")
     parser.add_argument("--version", action="version", version=f"flowvo {__version__}")
     parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
