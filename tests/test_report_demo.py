@@ -62,7 +62,7 @@ def test_bench_prints_the_timing_table(classical_runs, capsys):
     assert table[2].startswith("flowvo (") and "0.633" in table[-2]  # the default method first
     assert table[3].startswith("cnn (") and table[4].startswith("classical (")
     stage_cells = {row.split()[0]: row[63:].split()[:5] for row in table[2:5]}  # read flow network geometry chain
-    assert stage_cells["flowvo"][2] == "-" and stage_cells["CNN"][3] == "-"  # no network / no geometry stage
+    assert stage_cells["flowvo"][2] == "-" and stage_cells["cnn"][3] == "-"  # no network / no geometry stage
     assert stage_cells["classical"][2] == "-" and stage_cells["classical"][3] != "-"  # KLT, then the geometry
 
 
@@ -88,5 +88,5 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
         found = re.search(rf"<tr><td>{method}[^<]*</td><td>\d+</td>(?:<td>{seconds}</td>){{2}}<td>([^<]*)</td>", page)
         return found.group(1) if found else "row not found"
 
-    assert re.fullmatch(seconds, network_cell("CNN"))
-    assert network_cell("flowvo") == "-" and network_cell("classical (KLT") == "-"  # they have no network stage
+    assert re.fullmatch(seconds, network_cell("cnn"))
+    assert network_cell("flowvo") == "-" and network_cell("classical") == "-"  # they have no network stage

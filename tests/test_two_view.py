@@ -5,7 +5,7 @@ import pytest
 
 from flowvo.geometry import so3_exp
 from flowvo.road_scale import fit_road_plane, road_grid, road_step_length_m
-from flowvo.two_view import EssentialMotion, essential_motion, textured_points, triangulate
+from flowvo.two_view import EssentialMotion, essential_motion, no_image_area, textured_points, triangulate
 
 K = np.array([[350.0, 0.0, 300.0], [0.0, 350.0, 92.0], [0.0, 0.0, 1.0]])
 HEIGHT_M = 1.65
@@ -77,12 +77,21 @@ def test_no_plane_without_enough_points_below_the_camera():
 
 
 def test_textured_points_pick_the_strongest_gradient_of_their_cells():
-    image = np.zeros((188, 620), np.uint8)
+    image = np.full((188, 620), 20, np.uint8)
     image[40:44, 100:104] = 255  # one bright square: its corners are the strongest gradients
-    image[120:, :] = np.random.default_rng(0).integers(0, 40, (68, 620))  # weak texture below
+    image[120:, :] = np.random.default_rng(0).integers(1, 40, (68, 620))  # weak texture below
     points = textured_points(image, count=200)
     assert len(points) == 200 and points.min() >= 0 and (points < [620, 188]).all()
     assert ((np.abs(points[:4, 0] - 101.5) <= 3) & (np.abs(points[:4, 1] - 41.5) <= 3)).all()
+
+
+def test_textured_points_keep_away_from_areas_without_image():
+    image = np.random.default_rng(1).integers(1, 256, (188, 620)).astype(np.uint8)
+    image[:, :60] = 0  # a black border, as a lens-warped or letterboxed frame has: its edge is a strong gradient
+    image[100, 300] = 0  # a single black pixel is a dark scene, not a missing image
+    points = textured_points(image, count=600)
+    assert len(points) == 600 and points[:, 0].min() >= 60 + 6
+    assert (no_image_area(image)[:, :66]).all() and not no_image_area(image)[:, 70:].any()
 
 
 def test_road_grid_lies_in_the_band_ahead_of_the_camera():

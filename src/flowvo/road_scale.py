@@ -90,21 +90,33 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     return RoadPlane(float(normal @ centre), normal, len(inliers) / total)
 
 
-def road_step_length_m(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
-                       camera_height_m: float, max_tilt_rad: float = np.radians(4.0),
-                       min_inlier_fraction: float = 0.05) -> float | None:
-    """Metric length of the step from road correspondences: the camera height over the road plane's
-    distance in step units. None when no plane is found, or when the plane is not the road the camera
-    stands on: tilted more than ``max_tilt_rad`` from the camera's down axis (a slope ahead, a hill side)
-    or fitting fewer than ``min_inlier_fraction`` of the points. Measured on the real clips, estimates
-    off by more than 15 % had a median tilt of 3-8 degrees and 8 % inliers; good ones 1.4 degrees, 30 %."""
+def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                       max_tilt_rad: float = np.radians(4.0), min_inlier_fraction: float = 0.05) -> RoadPlane | None:
+    """The road plane the camera stands on, from road correspondences (distance in units of the step), or
+    None when no plane is found, or when it is not that road: tilted more than ``max_tilt_rad`` from the
+    camera's down axis (a slope ahead, a hill side) or fitting fewer than ``min_inlier_fraction`` of the
+    points. Measured on the real clips, step lengths off by more than 15 % came with a median tilt of 3-8
+    degrees and 8 % inliers; good ones 1.4 degrees, 30 %."""
     plane = fit_road_plane(triangulate(points_prev, points_next, K, motion))
     if plane is None or plane.distance <= 0 or plane.tilt_rad > max_tilt_rad \
             or plane.inlier_fraction < min_inlier_fraction:
         return None
-    return camera_height_m / plane.distance
+    return plane
 
 
+def road_step_length_m(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                       camera_height_m: float) -> float | None:
+    """Metric length of the step: the camera height over the trusted road plane's distance in step units
+    (see :func:`trusted_road_plane`); None without a trusted plane."""
+    plane = trusted_road_plane(points_prev, points_next, K, motion)
+    return None if plane is None else camera_height_m / plane.distance
+
+
+def road_homography(K: np.ndarray, motion: EssentialMotion, plane: RoadPlane) -> np.ndarray:
+    """The 3x3 homography that maps pixels of road points in the first frame to the second (ideal pinhole
+    pixels): ``K (R + t n^T / d) K^-1``, with the plane ``n . X = d`` in the first camera's frame and the
+    motion's unit translation (the plane's distance is in the same units)."""
+    return K @ (motion.R + np.outer(motion.t_dir, plane.normal) / plane.distance) @ np.linalg.inv(K)
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own
