@@ -11,6 +11,7 @@ from flowvo.cli import main
 from flowvo.drive import RunOptions, open_drive
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
+from flowvo.pipeline import run
 from flowvo.synth.camera_path import generate_path
 from flowvo.synth.dataset import sequence_seed, synthesize
 from flowvo.synth.render import pixel_rays, render
@@ -102,3 +103,20 @@ def test_lens_that_folds_over_the_image_is_refused(tmp_path, capsys):
                  "--distortion", "-0.5", "0", "0", "0"])
     assert code == 2 and "one-to-one" in capsys.readouterr().err
     assert not (tmp_path / "cli").exists()
+
+
+def _t_err_percent(tmp_path, name: str, camera: SynthCamera, path_frames: int) -> float:
+    """The default method's t_err on seed 4's drive of ``path_frames`` 10 Hz frames seen by ``camera``."""
+    data = tmp_path / name / "data"
+    frames = (path_frames - 1) * round(camera.fps / 10) + 1
+    synthesize(data, ["00"], seed=4, frames=frames, scale=0.4, max_speed_mps=12.0, workers=2, camera=camera)
+    summary = run(RunOptions(out=str(tmp_path / name / "run"), data=str(data), sequence="00",
+                             lengths_m=(25.0, 50.0, 75.0, 100.0)))
+    return summary["metrics"]["t_err_percent"]
+
+
+@pytest.mark.slow
+def test_default_method_on_a_low_wide_distorted_30fps_camera_is_within_1_3x_of_kitti_camera(tmp_path):
+    kitti = _t_err_percent(tmp_path, "kitti", SynthCamera(), 200)  # 164 m
+    other = _t_err_percent(tmp_path, "phone", PHONE_LIKE, 200)
+    assert other <= 1.3 * kitti, f"t_err {other:.2f} % against {kitti:.2f} % with KITTI's camera"
