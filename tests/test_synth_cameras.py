@@ -22,6 +22,7 @@ from flowvo.synth.world import build_world
 
 BARREL = LensDistortion("plumb_bob", (-0.25, 0.05, 0.0, 0.0))
 PHONE_LIKE = SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL, fps=30.0)
+DRIVE_PATH_FRAMES = 200  # 10 Hz frames of the end-to-end drive: 20 s, 164 m, enough for 100 m sub-paths
 
 
 @pytest.fixture(scope="module")
@@ -105,18 +106,28 @@ def test_lens_that_folds_over_the_image_is_refused(tmp_path, capsys):
     assert not (tmp_path / "cli").exists()
 
 
-def _t_err_percent(tmp_path, name: str, camera: SynthCamera, path_frames: int) -> float:
-    """The default method's t_err on seed 4's drive of ``path_frames`` 10 Hz frames seen by ``camera``."""
-    data = tmp_path / name / "data"
-    frames = (path_frames - 1) * round(camera.fps / 10) + 1
-    synthesize(data, ["00"], seed=4, frames=frames, scale=0.4, max_speed_mps=12.0, workers=2, camera=camera)
-    summary = run(RunOptions(out=str(tmp_path / name / "run"), data=str(data), sequence="00",
+def _t_err_percent(root, camera: SynthCamera) -> float:
+    """The default method's t_err on seed 4's 20 s drive (164 m, 496x150) seen by ``camera``."""
+    frames = (DRIVE_PATH_FRAMES - 1) * round(camera.fps / 10) + 1
+    synthesize(root / "data", ["00"], seed=4, frames=frames, scale=0.4, max_speed_mps=12.0, workers=2, camera=camera)
+    summary = run(RunOptions(out=str(root / "run"), data=str(root / "data"), sequence="00",
                              lengths_m=(25.0, 50.0, 75.0, 100.0)))
     return summary["metrics"]["t_err_percent"]
 
 
+@pytest.fixture(scope="module")
+def kitti_camera_t_err(tmp_path_factory) -> float:
+    return _t_err_percent(tmp_path_factory.mktemp("kitti_camera"), SynthCamera())
+
+
 @pytest.mark.slow
-def test_default_method_on_a_low_wide_distorted_30fps_camera_is_within_1_3x_of_kitti_camera(tmp_path):
-    kitti = _t_err_percent(tmp_path, "kitti", SynthCamera(), 200)  # 164 m
-    other = _t_err_percent(tmp_path, "phone", PHONE_LIKE, 200)
-    assert other <= 1.3 * kitti, f"t_err {other:.2f} % against {kitti:.2f} % with KITTI's camera"
+@pytest.mark.parametrize("camera", [
+    pytest.param(SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL), id="10fps"),
+    # measured 7.66 % against 4.40 %: at 30 fps each step's road flow is 3x smaller (the lead reworks the
+    # method's frame-rate handling; strict, so the fix shows up here)
+    pytest.param(PHONE_LIKE, id="30fps", marks=pytest.mark.xfail(strict=True, reason="default method at 30 fps")),
+])
+def test_default_method_on_a_low_wide_distorted_camera_is_within_1_3x_of_kitti_camera(camera, kitti_camera_t_err,
+                                                                                       tmp_path):
+    t_err = _t_err_percent(tmp_path, camera)
+    assert t_err <= 1.3 * kitti_camera_t_err, f"t_err {t_err:.2f} % against {kitti_camera_t_err:.2f} % (KITTI's)"
