@@ -10,7 +10,7 @@ import numpy as np
 from _table import print_table
 
 from flowvo.synth.camera_path import generate_path
-from flowvo.synth.render import render
+from flowvo.synth.render import pixel_rays, render
 from flowvo.synth.sequence_writer import intrinsics
 from flowvo.synth.textures import make_textures
 from flowvo.synth.world import SCENE_TYPES, build_world
@@ -24,13 +24,13 @@ def main() -> None:
     for scene in SCENE_TYPES:
         world = build_world(poses, 7, scene)
         for scale in (1.0, 0.5):
-            K, size = intrinsics(scale)
+            rays = pixel_rays(*intrinsics(scale))
             times = []
             for pose in poses[::30]:
                 start = time.perf_counter()
-                render(world, textures, pose, K, size)
+                render(world, textures, pose, rays)
                 times.append(time.perf_counter() - start)
-            rows.append([scene, f"{size[1]}x{size[0]}", float(np.median(times)), float(np.max(times))])
+            rows.append([scene, f"{rays.size_hw[1]}x{rays.size_hw[0]}", float(np.median(times)), float(np.max(times))])
     print_table("synthetic render time per frame, 1 core (s)", ["scene", "size", "median_s", "max_s"], rows)
 
 

@@ -1,4 +1,4 @@
-"""Pinhole projection maths: the motion field (true optical flow) from depth and relative pose.
+"""Pinhole projection maths (optionally behind a lens): the motion field (true optical flow) from depth and pose.
 
 Flow convention (one source of truth): ``flow_px (H, W, 2)``, u right and v down, in pixels of the frame
 it was computed on; forward flow maps pixel p of frame t to p + flow(p) in frame t+1.
@@ -8,18 +8,26 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowvo.camera import NO_DISTORTION, LensDistortion, distort_points, undistort_points
 
-def flow_from_depth(depth_m: np.ndarray, K: np.ndarray, T_next_cur: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+
+def flow_from_depth(depth_m: np.ndarray, K: np.ndarray, T_next_cur: np.ndarray,
+                    distortion: LensDistortion = NO_DISTORTION) -> tuple[np.ndarray, np.ndarray]:
     """Forward flow (H, W, 2) float32 and the depth of each point in the next camera (H, W).
 
     ``depth_m`` is camera z of frame t (inf for points at infinity, which move by rotation only);
     ``T_next_cur`` maps frame-t camera coordinates to frame-t+1 camera coordinates
-    (``inv(T_world_next) @ T_world_cur``).
+    (``inv(T_world_next) @ T_world_cur``). With a lens ``distortion`` both frames are the distorted
+    images (pixel rays undistorted, landing points distorted again).
     """
     h, w = depth_m.shape
     v, u = np.mgrid[0:h, 0:w].astype(np.float64)
-    x = (u - K[0, 2]) / K[0, 0]
-    y = (v - K[1, 2]) / K[1, 1]
+    ideal_u, ideal_v = u, v
+    if not distortion.is_none:
+        ideal = undistort_points(np.c_[u.ravel(), v.ravel()], K, distortion).astype(np.float64)
+        ideal_u, ideal_v = ideal[:, 0].reshape(h, w), ideal[:, 1].reshape(h, w)
+    x = (ideal_u - K[0, 2]) / K[0, 0]
+    y = (ideal_v - K[1, 2]) / K[1, 1]
     inverse_depth = np.where(np.isfinite(depth_m), 1.0 / np.maximum(depth_m, 1e-6), 0.0)
     # homogeneous point (x, y, 1, 1/z) scaled by z: works for points at infinity too
     R, t = T_next_cur[:3, :3], T_next_cur[:3, 3]
@@ -30,6 +38,10 @@ def flow_from_depth(depth_m: np.ndarray, K: np.ndarray, T_next_cur: np.ndarray) 
         u_next = K[0, 0] * X / Z + K[0, 2]
         v_next = K[1, 1] * Y / Z + K[1, 2]
         next_depth = np.where(inverse_depth > 0, Z / inverse_depth, np.inf)
+    if not distortion.is_none:
+        ahead = np.isfinite(u_next) & np.isfinite(v_next) & (Z > 0)
+        landing = distort_points(np.c_[u_next[ahead], v_next[ahead]], K, distortion)
+        u_next[ahead], v_next[ahead] = landing[:, 0], landing[:, 1]
     flow = np.stack([u_next - u, v_next - v], axis=-1).astype(np.float32)
     return flow, next_depth
 

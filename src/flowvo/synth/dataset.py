@@ -10,7 +10,9 @@ from flowvo.errors import FlowvoError
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import sequence_name
 from flowvo.synth.camera_path import PathConfig, generate_path
+from flowvo.synth.frame_rate import frames_spanning, path_frames_for
 from flowvo.synth.sequence_writer import SynthSpec, intrinsics, spec_digest, write_sequence
+from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera, check_lens
 
 DEFAULT_FRAMES = 400
 MAX_SCALE = 4.0  # 4964 x 1504 frames; beyond that a render needs more memory than a laptop has
@@ -23,15 +25,20 @@ def sequence_seed(seed: int, name: str) -> int:
 
 
 def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Path | None,
-                  scale: float, scene: str | None, gt_flow: bool, max_speed_mps: float = 25.0) -> SynthSpec:
+                  scale: float, scene: str | None, gt_flow: bool, max_speed_mps: float = 25.0,
+                  camera: SynthCamera | None = None) -> SynthSpec:
     """The spec of one sequence: a replay of ``trajectory`` (a pose file, or a folder of NN.txt) or a
-    generated drive of ``frames`` frames."""
-    _check_scale(scale)
+    generated drive, of ``frames`` frames at the camera's frame rate (default: the whole replay, or a
+    generated drive of DEFAULT_FRAMES / 10 Hz seconds). The drive is a 10 Hz path either way; other frame
+    rates sample it in time (see :mod:`flowvo.synth.frame_rate`)."""
+    camera = camera or SynthCamera()
+    _check_scale(scale, camera)
     if frames is not None and frames < 2:
         raise FlowvoError(f"--frames {frames}: a sequence needs at least 2 frames")
     if seed < 0 or not 0 < max_speed_mps <= 100:
         raise FlowvoError(f"--seed {seed} must be >= 0 and --max-speed {max_speed_mps:g} in (0, 100] m/s")
     world_seed = sequence_seed(seed, name)
+    path_frames = None if frames is None else path_frames_for(frames, PATH_RATE_HZ, camera.fps)
     if trajectory is not None:
         path = Path(trajectory)
         if path.is_dir():
@@ -39,22 +46,25 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
         poses = read_kitti_poses(path)
         if not poses.is_complete:
             raise FlowvoError("a replayed trajectory needs every frame (12 numbers per line)", path)
-        T = poses.T_world_cam if frames is None else poses.T_world_cam[:frames]
+        T = poses.T_world_cam if frames is None else poses.T_world_cam[:path_frames]
+        if frames is not None and len(T) < path_frames:
+            frames = frames_spanning(len(T), PATH_RATE_HZ, camera.fps)  # a short replay: all of it
         if len(T) < 2:
             raise FlowvoError(f"holds {len(T)} pose; a replayed sequence needs at least 2 frames", path)
     else:
-        T = generate_path(DEFAULT_FRAMES if frames is None else frames, world_seed,
+        T = generate_path(DEFAULT_FRAMES if frames is None else path_frames, world_seed,
                           PathConfig(max_speed_mps=max_speed_mps))
-    return SynthSpec(T, world_seed, scale, scene, gt_flow)
+    return SynthSpec(T, world_seed, scale, scene, gt_flow, camera, frames)
 
 
-def _check_scale(scale: float) -> None:
+def _check_scale(scale: float, camera: SynthCamera) -> None:
     if not 0 < scale <= MAX_SCALE:
         raise FlowvoError(f"--scale {scale:g}: use a scale in (0, {MAX_SCALE:g}] (1.0 = KITTI's 1241x376)")
-    _, (height, width) = intrinsics(scale)
+    K, (height, width) = intrinsics(scale, camera)
     if min(height, width) < MIN_IMAGE_PX:
         raise FlowvoError(f"--scale {scale:g} gives {width}x{height} images; need at least {MIN_IMAGE_PX} pixels "
                           "a side")
+    check_lens(camera.distortion, K, (height, width))
 
 
 def _existing_digest(root: Path, name: str) -> str | None:
@@ -100,8 +110,9 @@ def check_target(root: Path, specs: dict[str, SynthSpec], force: bool) -> list[s
 def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | None = None,
                trajectory: str | Path | None = None, scale: float = 1.0, scene: str | None = None,
                gt_flow: bool = False, workers: int | None = None, max_speed_mps: float = 25.0,
-               force: bool = False) -> list[Path]:
-    """Write every named sequence under ``root`` in the KITTI layout; returns their folders.
+               force: bool = False, camera: SynthCamera | None = None) -> list[Path]:
+    """Write every named sequence under ``root`` in the KITTI layout, seen by ``camera`` (KITTI's by
+    default); returns their folders.
 
     Every plan is made (and every input read) before anything is written; see :func:`check_target` for
     when an existing ``root`` is refused, resumed or (``force``) partly replaced.
@@ -111,7 +122,7 @@ def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | 
     repeated = sorted({name for name in canonical if canonical.count(name) > 1})
     if repeated:
         raise FlowvoError(f"sequence {' '.join(repeated)} given more than once")
-    specs = {name: plan_sequence(name, seed, frames, trajectory, scale, scene, gt_flow, max_speed_mps)
+    specs = {name: plan_sequence(name, seed, frames, trajectory, scale, scene, gt_flow, max_speed_mps, camera)
              for name in canonical}
     for name in check_target(root, specs, force):
         _clear_sequence(root, name)

@@ -1,4 +1,4 @@
-"""Vectorised ray casting of a :class:`World` through a pinhole camera.
+"""Vectorised ray casting of a :class:`World` through a pinhole camera, optionally behind a lens.
 
 Geometry pass: the terrain by fixed-point iteration of the ray-heightfield intersection, boxes as quads
 rasterised inside their projected bounding boxes with a z-buffer. Shading pass: one texture lookup per
@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from flowvo.camera import NO_DISTORTION, LensDistortion, undistort_points
 from flowvo.synth.textures import Texture
 from flowvo.synth.world import ROAD_HALF_WIDTH_M, SCENE_BRIGHTNESS, SCENE_TYPES, World
 
@@ -19,6 +20,7 @@ NEAR_M = 0.3
 OBJECT_RANGE_M = 300.0
 TERRAIN_ITERATIONS = 6
 SUN_DIRECTION = np.array([0.45, -0.8, 0.4]) / np.linalg.norm([0.45, -0.8, 0.4])  # towards the sun, y down
+TILE_PX = 8  # block side (pixels) for finding a quad's pixels through a lens: small blocks test few extra pixels
 MATERIALS = ("sky", "asphalt", "grass", "facade", "brick", "foliage", "bark", "hills")
 
 
@@ -34,25 +36,60 @@ class _Surface:
     shade: np.ndarray
 
 
-def pixel_rays(K: np.ndarray, size_hw: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Normalised image coordinates (x, y), each (H*W,), so that a camera ray is (x, y, 1)."""
+@dataclass(frozen=True)
+class _Tiles:
+    """Pixels in blocks of TILE_PX x TILE_PX: ``order`` (H*W,) lists the pixel indices block by block,
+    block b holding ``order[start[b]:start[b + 1]]``, whose rays span ``lo`` .. ``hi`` (B, 2) in (xn, yn)."""
+
+    order: np.ndarray
+    start: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+
+@dataclass(frozen=True)
+class PixelRays:
+    """The viewing ray of every pixel of an (H, W) image with intrinsics ``K``: normalised coordinates
+    ``xn``, ``yn`` (each (H*W,)), so that the ray is (xn, yn, 1) in the camera frame (x right, y down).
+
+    Through a lens (``tiles`` set) the rays are those of the undistorted pixel positions; ``tiles``
+    then groups the pixels into blocks with the range of their rays, to find a quad's pixels."""
+
+    K: np.ndarray
+    size_hw: tuple[int, int]
+    xn: np.ndarray
+    yn: np.ndarray
+    tiles: _Tiles | None = None
+
+
+def pixel_rays(K: np.ndarray, size_hw: tuple[int, int], distortion: LensDistortion = NO_DISTORTION) -> PixelRays:
+    """The rays of every pixel of an image through a pinhole camera ``K`` with lens ``distortion``."""
     h, w = size_hw
     v, u = np.mgrid[0:h, 0:w].astype(np.float64)
-    return ((u - K[0, 2]) / K[0, 0]).ravel(), ((v - K[1, 2]) / K[1, 1]).ravel()
+    if distortion.is_none:
+        return PixelRays(K, size_hw, ((u - K[0, 2]) / K[0, 0]).ravel(), ((v - K[1, 2]) / K[1, 1]).ravel())
+    ideal = undistort_points(np.c_[u.ravel(), v.ravel()], K, distortion).astype(np.float64)
+    xn, yn = (ideal[:, 0] - K[0, 2]) / K[0, 0], (ideal[:, 1] - K[1, 2]) / K[1, 1]
+    block = (v // TILE_PX * -(-w // TILE_PX) + u // TILE_PX).ravel().astype(np.int64)
+    order = np.argsort(block, kind="stable")
+    start = np.concatenate([[0], np.cumsum(np.bincount(block))])
+    block_rays = np.c_[xn, yn][order]
+    lo = np.minimum.reduceat(block_rays, start[:-1], axis=0)
+    hi = np.maximum.reduceat(block_rays, start[:-1], axis=0)
+    return PixelRays(K, size_hw, xn, yn, _Tiles(order, start, lo, hi))
 
 
-def render(world: World, textures: dict[str, Texture], T_world_cam: np.ndarray, K: np.ndarray,
-           size_hw: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+def render(world: World, textures: dict[str, Texture], T_world_cam: np.ndarray, rays: PixelRays
+           ) -> tuple[np.ndarray, np.ndarray]:
     """Grey image (H, W) uint8 and depth (H, W) float32 (camera z, metres, inf = sky) of one view."""
-    xn, yn = pixel_rays(K, size_hw)
     R, origin = T_world_cam[:3, :3], T_world_cam[:3, 3]
-    directions = R @ np.stack([xn, yn, np.ones_like(xn)])  # world ray per unit camera depth, (3, P)
-    surface = _terrain(world, origin, directions, K[0, 0])
+    directions = R @ np.stack([rays.xn, rays.yn, np.ones_like(rays.xn)])  # world ray per unit camera depth, (3, P)
+    surface = _terrain(world, origin, directions, rays.K[0, 0])
     for face in _visible_faces(world, T_world_cam):
-        _rasterise_quad(surface, face, R, origin, xn, yn, size_hw, K)
+        _rasterise_quad(surface, face, R, origin, rays)
     intensity = _shade(world, textures, surface, origin, directions)
-    image = np.clip(intensity * 255.0 + 0.5, 0, 255).astype(np.uint8).reshape(size_hw)
-    return image, surface.depth.reshape(size_hw).astype(np.float32)
+    image = np.clip(intensity * 255.0 + 0.5, 0, 255).astype(np.uint8).reshape(rays.size_hw)
+    return image, surface.depth.reshape(rays.size_hw).astype(np.float32)
 
 
 def _terrain(world: World, origin: np.ndarray, d: np.ndarray, focal_px: float) -> _Surface:
@@ -133,8 +170,8 @@ def _visible_faces(world: World, T_world_cam: np.ndarray):
             yield top_corner, f * 2 * a, r * 2 * c, up, material, offset, bright
 
 
-def _project_bbox(points_cam: np.ndarray, K: np.ndarray, size_hw: tuple[int, int]):
-    """Pixel bounding box (u0, u1, v0, v1) of a convex polygon (M, 3) clipped at the near plane."""
+def _clip_near(points_cam: np.ndarray) -> np.ndarray | None:
+    """The part (M', 3) of a convex polygon (M, 3) in front of the near plane, or None."""
     clipped = []
     for i in range(len(points_cam)):
         p, q = points_cam[i], points_cam[(i + 1) % len(points_cam)]
@@ -142,30 +179,42 @@ def _project_bbox(points_cam: np.ndarray, K: np.ndarray, size_hw: tuple[int, int
             clipped.append(p)
         if (p[2] >= NEAR_M) != (q[2] >= NEAR_M):
             clipped.append(p + (q - p) * (NEAR_M - p[2]) / (q[2] - p[2]))
-    if not clipped:
+    return np.array(clipped) if clipped else None
+
+
+def _polygon_pixels(points_cam: np.ndarray, rays: PixelRays) -> np.ndarray | None:
+    """Indices of the pixels that may see a convex polygon (M, 3) in camera coordinates: its projected
+    bounding box (pinhole), or the blocks whose rays overlap the box of its rays (through a lens)."""
+    pts = _clip_near(points_cam)
+    if pts is None:
         return None
-    pts = np.array(clipped)
+    if rays.tiles is not None:
+        x, y, tiles = pts[:, 0] / pts[:, 2], pts[:, 1] / pts[:, 2], rays.tiles
+        hit = np.flatnonzero((tiles.lo[:, 0] <= x.max()) & (tiles.hi[:, 0] >= x.min())
+                             & (tiles.lo[:, 1] <= y.max()) & (tiles.hi[:, 1] >= y.min()))
+        if not len(hit):
+            return None
+        return np.concatenate([tiles.order[tiles.start[b]:tiles.start[b + 1]] for b in hit])
+    K = rays.K
     u = K[0, 0] * pts[:, 0] / pts[:, 2] + K[0, 2]
     v = K[1, 1] * pts[:, 1] / pts[:, 2] + K[1, 2]
-    h, w = size_hw
+    h, w = rays.size_hw
     u0, u1 = max(int(np.floor(u.min())), 0), min(int(np.ceil(u.max())) + 1, w)
     v0, v1 = max(int(np.floor(v.min())), 0), min(int(np.ceil(v.max())) + 1, h)
     if u0 >= u1 or v0 >= v1:
         return None
-    return u0, u1, v0, v1
+    return (np.arange(v0, v1)[:, None] * w + np.arange(u0, u1)[None, :]).ravel()
 
 
-def _rasterise_quad(surface: _Surface, face, R, origin, xn, yn, size_hw, K) -> None:
+def _rasterise_quad(surface: _Surface, face, R, origin, rays: PixelRays) -> None:
     corner, edge_a, edge_b, normal, material, offset, bright = face
     corners_world = np.stack([corner, corner + edge_a, corner + edge_a + edge_b, corner + edge_b])
     corners_cam = (corners_world - origin) @ R
-    box = _project_bbox(corners_cam, K, size_hw)
-    if box is None:
+    index = _polygon_pixels(corners_cam, rays)
+    if index is None:
         return
-    u0, u1, v0, v1 = box
-    w = size_hw[1]
-    index = (np.arange(v0, v1)[:, None] * w + np.arange(u0, u1)[None, :]).ravel()
-    x, y = xn[index], yn[index]
+    K = rays.K
+    x, y = rays.xn[index], rays.yn[index]
     n_cam = R.T @ normal
     p_cam = R.T @ (corner - origin)
     denominator = n_cam[0] * x + n_cam[1] * y + n_cam[2]

@@ -10,19 +10,22 @@ import multiprocessing
 import os
 import signal
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from flowvo.atomic import atomic_path, write_json_atomic, write_text_atomic
+from flowvo.camera import LensDistortion
 from flowvo.geometry import invert_se3
 from flowvo.kitti.calib import Calibration, format_calibration
 from flowvo.kitti.poses import write_kitti_poses
 from flowvo.progress import progress
 from flowvo.projection import flow_from_depth, occlusion_mask
-from flowvo.synth.render import render
+from flowvo.synth.frame_rate import frames_spanning, resample_poses
+from flowvo.synth.render import PixelRays, pixel_rays, render
+from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera
 from flowvo.synth.textures import make_textures
 from flowvo.synth.world import World, build_world
 from flowvo.trajectory import Trajectory
@@ -35,55 +38,74 @@ STEREO_BASELINE_M = 0.54
 
 @dataclass(frozen=True)
 class SynthSpec:
-    """What to render for one sequence: its poses, the world seed and scene, and the image scale."""
+    """What to render for one sequence: the drive (``T_world_cam``, camera-to-world poses at the path's
+    10 Hz; the world follows it), the world seed and scene, the image scale, the camera, and how many
+    ``frames`` to render at the camera's frame rate (None: the whole drive)."""
 
     T_world_cam: np.ndarray
     seed: int
     scale: float = 1.0
     scene: str | None = None
     gt_flow: bool = False
+    camera: SynthCamera = field(default_factory=SynthCamera)
+    frames: int | None = None
+
+    def frame_poses(self) -> np.ndarray:
+        """Camera-to-world poses (F, 4, 4) of the rendered frames, at the camera's frame rate."""
+        frames = self.frames or frames_spanning(len(self.T_world_cam), PATH_RATE_HZ, self.camera.fps)
+        return resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, frames)
 
 
 def spec_digest(spec: SynthSpec) -> str:
-    """SHA-256 of everything that determines the rendered files (poses, seed, scale, scene, GT flow): two
-    runs with equal digests write identical sequences, so frames on disk may be reused (resume)."""
+    """SHA-256 of everything that determines the rendered files (poses, seed, scale, scene, GT flow, camera):
+    two runs with equal digests write identical sequences, so frames on disk may be reused (resume). KITTI's
+    camera adds nothing, so renders made before the camera options resume."""
     digest = hashlib.sha256(np.ascontiguousarray(spec.T_world_cam, dtype=np.float64).tobytes())
     digest.update(repr((spec.seed, float(spec.scale), spec.scene, spec.gt_flow)).encode())
+    if not spec.camera.is_kitti:
+        digest.update(repr((spec.camera, spec.frames)).encode())
     return digest.hexdigest()
 
 
-def intrinsics(scale: float) -> tuple[np.ndarray, tuple[int, int]]:
-    """KITTI's intrinsics K (3, 3) and image size (H, W), scaled."""
+def intrinsics(scale: float, camera: SynthCamera | None = None) -> tuple[np.ndarray, tuple[int, int]]:
+    """The intrinsics K (3, 3) and image size (H, W) of KITTI's image, scaled, with the focal length of
+    ``camera``'s field of view (KITTI's without one)."""
+    size = (int(round(KITTI_SIZE_HW[0] * scale)), int(round(KITTI_SIZE_HW[1] * scale)))
     K = np.array([[KITTI_FOCAL_PX, 0, KITTI_PRINCIPAL_PX[0]], [0, KITTI_FOCAL_PX, KITTI_PRINCIPAL_PX[1]], [0, 0, 1]])
     K[:2] *= scale
-    size = (int(round(KITTI_SIZE_HW[0] * scale)), int(round(KITTI_SIZE_HW[1] * scale)))
+    if camera is not None and camera.fov_deg is not None:
+        K[0, 0] = K[1, 1] = camera.focal_px(size[1], K[0, 0])
     return K, size
 
 
-def kitti_calibration(K: np.ndarray) -> Calibration:
-    """P0..P3 as in KITTI: P1 (right grey) at the 0.54 m baseline; colour cameras share the grey ones."""
+def kitti_calibration(K: np.ndarray, camera: SynthCamera | None = None) -> Calibration:
+    """P0..P3 as in KITTI: P1 (right grey) at the 0.54 m baseline; colour cameras share the grey ones.
+    A camera other than KITTI's adds its lens distortion and its height above the road."""
     P0 = np.hstack([K, np.zeros((3, 1))])
     P1 = P0.copy()
     P1[0, 3] = -K[0, 0] * STEREO_BASELINE_M
-    return Calibration({"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()})
+    matrices = {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
+    if camera is None or camera.is_kitti:
+        return Calibration(matrices)
+    return Calibration(matrices, camera.distortion, camera.height_m)
 
 
 _worker_state: dict = {}
 
 
-def _init_worker(world: World, seed: int, K: np.ndarray, size_hw: tuple[int, int]) -> None:
-    _worker_state.update(world=world, textures=make_textures(seed), K=K, size=size_hw)
+def _init_worker(world: World, seed: int, rays: PixelRays) -> None:
+    _worker_state.update(world=world, textures=make_textures(seed), rays=rays)
 
 
 def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     state = _worker_state
-    return render(state["world"], state["textures"], pose, state["K"], state["size"])
+    return render(state["world"], state["textures"], pose, state["rays"])
 
 
-def _init_pool_worker(world: World, seed: int, K: np.ndarray, size_hw: tuple[int, int]) -> None:
+def _init_pool_worker(world: World, seed: int, rays: PixelRays) -> None:
     """A render process: Ctrl-C is left to the parent, which stops the pool and reports one line."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _init_worker(world, seed, K, size_hw)
+    _init_worker(world, seed, rays)
 
 
 def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | None = None) -> Path:
@@ -93,28 +115,32 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
     directory = root / "sequences" / name
     image_dir = directory / "image_0"
     image_dir.mkdir(parents=True, exist_ok=True)
-    K, size = intrinsics(spec.scale)
-    write_text_atomic(directory / "calib.txt", format_calibration(kitti_calibration(K)))
-    write_text_atomic(directory / "times.txt", "".join(f"{0.1 * i:.6e}\n" for i in range(len(spec.T_world_cam))))
-    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(spec.T_world_cam))
+    camera = spec.camera
+    K, size = intrinsics(spec.scale, camera)
+    poses = spec.frame_poses()
+    write_text_atomic(directory / "calib.txt", format_calibration(kitti_calibration(K, camera)))
+    write_text_atomic(directory / "times.txt", "".join(f"{i / camera.fps:.6e}\n" for i in range(len(poses))))
+    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(poses))
     write_json_atomic(directory / "synthetic.json", {
         "synthetic": True, "seed": spec.seed, "scene": spec.scene or "varied", "scale": spec.scale,
-        "frames": len(spec.T_world_cam), "generator": "flowvo synth", "spec_sha256": spec_digest(spec),
+        "frames": len(poses), "generator": "flowvo synth", "spec_sha256": spec_digest(spec),
+        "camera": camera.record(),
     })
-    world = build_world(spec.T_world_cam, spec.seed, spec.scene)
-    todo = [i for i in range(len(spec.T_world_cam)) if not (image_dir / f"{i:06d}.png").exists()]
+    world = build_world(spec.T_world_cam, spec.seed, spec.scene, camera.height_m)
+    rays = pixel_rays(K, size, camera.distortion)
+    todo = [i for i in range(len(poses)) if not (image_dir / f"{i:06d}.png").exists()]
     if spec.gt_flow:
-        todo = list(range(len(spec.T_world_cam)))  # depth of every frame is needed for the flow
+        todo = list(range(len(poses)))  # depth of every frame is needed for the flow
     workers = workers or max(1, min(os.cpu_count() or 1, 8))
-    frames = [spec.T_world_cam[i] for i in todo]
+    frames = [poses[i] for i in todo]
     with ExitStack() as stack:
         if workers > 1 and len(frames) > 4:
             # spawn, not fork: a forked child inherits OpenCV's thread pool in a locked state and hangs
             context = multiprocessing.get_context("spawn")
-            pool = stack.enter_context(context.Pool(workers, _init_pool_worker, (world, spec.seed, K, size)))
+            pool = stack.enter_context(context.Pool(workers, _init_pool_worker, (world, spec.seed, rays)))
             results = pool.imap(_render_one, frames, chunksize=2)
         else:
-            _init_worker(world, spec.seed, K, size)
+            _init_worker(world, spec.seed, rays)
             results = map(_render_one, frames)
         previous = None
         for i, (image, depth) in progress(zip(todo, results, strict=True), f"render {name}", len(todo), "frame"):
@@ -122,15 +148,15 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
                 cv2.imwrite(str(tmp), image)
             if spec.gt_flow:
                 if previous is not None:
-                    _write_gt_flow(directory, i - 1, previous, depth, spec.T_world_cam, K)
+                    _write_gt_flow(directory, i - 1, previous, depth, poses, K, camera.distortion)
                 previous = depth
     return directory
 
 
 def _write_gt_flow(directory: Path, index: int, depth: np.ndarray, depth_next: np.ndarray,
-                   T_world_cam: np.ndarray, K: np.ndarray) -> None:
+                   T_world_cam: np.ndarray, K: np.ndarray, distortion: LensDistortion) -> None:
     T_next_cur = invert_se3(T_world_cam[index + 1]) @ T_world_cam[index]
-    flow, next_depth = flow_from_depth(depth, K, T_next_cur)
+    flow, next_depth = flow_from_depth(depth, K, T_next_cur, distortion)
     occluded = occlusion_mask(flow, next_depth, depth_next)
     flow_dir = directory / "flow_gt"
     flow_dir.mkdir(exist_ok=True)

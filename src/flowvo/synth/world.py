@@ -1,7 +1,8 @@
 """The procedural world around a camera path: terrain, road, scene types and box-shaped objects.
 
 World frame = KITTI world (x right, y down, z forward of the first camera), metres. The ground follows
-the path (1.65 m below the camera) and undulates gently away from it; the road is a band around the path.
+the path (the camera height below it, KITTI's 1.65 m by default) and undulates gently away from it; the
+road is a band around the path.
 Objects (facades, walls, houses, trees, poles) are boxes that never intrude on the road.
 """
 
@@ -98,8 +99,10 @@ def _resample_path(positions: np.ndarray, spacing_m: float) -> tuple[np.ndarray,
     return samples, resampled
 
 
-def build_world(T_world_cam: np.ndarray, seed: int, scene: str | None = None) -> World:
-    """The world for a camera path (N, 4, 4), deterministic per seed."""
+def build_world(T_world_cam: np.ndarray, seed: int, scene: str | None = None,
+                camera_height_m: float = KITTI_CAMERA_HEIGHT_M) -> World:
+    """The world for a camera path (N, 4, 4) whose camera rides ``camera_height_m`` above the road,
+    deterministic per seed."""
     along, path = _resample_path(T_world_cam[:, :3, 3], GRID_RESOLUTION_M / 2)
     tangent = np.gradient(path[:, [0, 2]], axis=0)
     tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-9)
@@ -124,7 +127,7 @@ def build_world(T_world_cam: np.ndarray, seed: int, scene: str | None = None) ->
     undulation = 2.5 * cv2.GaussianBlur(rng.normal(size=shape).astype(np.float32), (0, 0), 60.0)
     undulation /= max(float(np.abs(undulation).max()), 1e-6) / 3.0
     blend = np.clip((distance - 12.0) / 60.0, 0.0, 1.0)
-    ground = path[nearest, 1] + KITTI_CAMERA_HEIGHT_M - blend * undulation  # hills rise away from the road
+    ground = path[nearest, 1] + camera_height_m - blend * undulation  # hills rise away from the road
     ground = cv2.GaussianBlur(ground.astype(np.float32), (0, 0), 2.0)
     starts, kinds = scene_schedule(seed, along[-1], scene)
     scene_index = kinds[np.searchsorted(starts, along_grid, side="right").clip(1) - 1].astype(np.float32)

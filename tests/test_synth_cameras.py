@@ -1,0 +1,133 @@
+"""flowvo synth with cameras other than KITTI's: height, field of view, lens distortion, frame rate."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from flowvo.camera import LensDistortion, undistort_points
+from flowvo.cli import main
+from flowvo.drive import RunOptions, open_drive
+from flowvo.errors import FlowvoError
+from flowvo.kitti.sequence import KittiSequence
+from flowvo.pipeline import run
+from flowvo.synth.camera_path import generate_path
+from flowvo.synth.dataset import sequence_seed, synthesize
+from flowvo.synth.render import pixel_rays, render
+from flowvo.synth.sequence_writer import intrinsics
+from flowvo.synth.synth_camera import SynthCamera
+from flowvo.synth.textures import make_textures
+from flowvo.synth.world import build_world
+
+BARREL = LensDistortion("plumb_bob", (-0.25, 0.05, 0.0, 0.0))
+PHONE_LIKE = SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL, fps=30.0)
+DRIVE_PATH_FRAMES = 200  # 10 Hz frames of the end-to-end drive: 20 s, 164 m, enough for 100 m sub-paths
+
+
+@pytest.fixture(scope="module")
+def lens_root(tmp_path_factory):
+    """30 frames (3 s, pulling away) of a low, wide camera behind a barrel lens, with true flow."""
+    root = tmp_path_factory.mktemp("lens")
+    synthesize(root, ["00"], seed=3, frames=30, scale=0.4, gt_flow=True, workers=1,
+               camera=SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL))
+    return root
+
+
+def test_calib_txt_round_trips_lens_height_and_field_of_view(lens_root):
+    calibration = KittiSequence(lens_root, "00").calibration
+    assert calibration.distortion == BARREL
+    assert calibration.camera_height_m == pytest.approx(1.2)
+    width = KittiSequence(lens_root, "00").image_size_hw[1]
+    assert math.degrees(2 * math.atan(width / 2 / calibration.K0[0, 0])) == pytest.approx(90.0)
+    camera = open_drive(RunOptions(out=str(lens_root / "unused"), data=str(lens_root), sequence="00")).camera
+    assert camera.distortion == BARREL and camera.height_m == pytest.approx(1.2)
+
+
+def test_thirty_fps_renders_the_same_drive_with_three_times_the_frames(tmp_path):
+    synthesize(tmp_path / "10", ["00"], seed=2, frames=3, scale=0.2, workers=1)
+    synthesize(tmp_path / "30", ["00"], seed=2, frames=7, scale=0.2, workers=1, camera=SynthCamera(fps=30.0))
+    sequence = KittiSequence(tmp_path / "30", "00")
+    assert len(sequence) == 7
+    np.testing.assert_allclose(sequence.times_s, np.arange(7) / 30.0, atol=1e-6)
+    steps = np.linalg.norm(np.diff(sequence.poses.T_world_cam[:, :3, 3], axis=0), axis=1)
+    ten_hz = np.linalg.norm(np.diff(generate_path(3, sequence_seed(2, "00"))[:, :3, 3], axis=0), axis=1)
+    assert steps.sum() == pytest.approx(ten_hz.sum(), rel=1e-3)
+    for k in range(3):
+        ten = (tmp_path / "10/sequences/00/image_0" / f"{k:06d}.png").read_bytes()
+        thirty = (tmp_path / "30/sequences/00/image_0" / f"{3 * k:06d}.png").read_bytes()
+        assert ten == thirty
+    between = (tmp_path / "30/sequences/00/image_0/000001.png").read_bytes()
+    assert between not in {(tmp_path / "10/sequences/00/image_0" / f"{k:06d}.png").read_bytes() for k in range(3)}
+
+
+def test_distorted_render_is_the_ideal_render_seen_through_the_lens():
+    poses = generate_path(60, 5)
+    world, textures = build_world(poses, 5), make_textures(5)
+    K, size = intrinsics(0.4, SynthCamera(fov_deg=90.0))
+    distorted, _ = render(world, textures, poses[40], pixel_rays(K, size, BARREL))
+    ideal, _ = render(world, textures, poses[40], pixel_rays(K, size))
+    h, w = size
+    v, u = np.mgrid[0:h, 0:w].astype(np.float32)
+    where = undistort_points(np.c_[u.ravel(), v.ravel()], K, BARREL).reshape(h, w, 2)
+    inside = (where[..., 0] >= 1) & (where[..., 0] < w - 2) & (where[..., 1] >= 1) & (where[..., 1] < h - 2)
+    warped = cv2.remap(ideal, where[..., 0], where[..., 1], cv2.INTER_LINEAR).astype(np.float32)
+    error = np.abs(warped - distorted)[inside]
+    unwarped = np.abs(ideal.astype(np.float32) - distorted)[inside]
+    assert inside.mean() > 0.5
+    # measured: median 1, mean 2.4 grey levels (texture filtering, edges), against a mean of 15.7 unwarped
+    assert np.median(error) <= 2.0 and error.mean() < 5.0
+    assert error.mean() < unwarped.mean() / 3
+
+
+def test_true_flow_through_the_lens_warps_next_frame_onto_current(lens_root):
+    sequence = KittiSequence(lens_root, "00")
+    h, w = sequence.image_size_hw
+    v, u = np.mgrid[0:h, 0:w].astype(np.float32)
+    for index in (20, 27):
+        current = sequence.read_image(index).astype(np.float32)
+        following = sequence.read_image(index + 1).astype(np.float32)
+        flow = np.load(lens_root / "sequences/00/flow_gt" / f"{index:06d}.npy")
+        occluded = cv2.imread(str(lens_root / "sequences/00/flow_gt" / f"{index:06d}_occluded.png"), 0) > 0
+        warped = cv2.remap(following, u + flow[..., 0], v + flow[..., 1], cv2.INTER_LINEAR)
+        error = np.abs(warped - current)[~occluded]
+        unwarped = np.abs(following - current)[~occluded]
+        assert np.median(error) < 1.5 and error.mean() < 3.0
+        assert error.mean() < unwarped.mean()
+
+
+def test_lens_that_folds_over_the_image_is_refused(tmp_path, capsys):
+    with pytest.raises(FlowvoError, match="one-to-one"):
+        synthesize(tmp_path, ["00"], frames=2, scale=0.1, workers=1,
+                   camera=SynthCamera(fov_deg=120.0, distortion=LensDistortion("plumb_bob", (-0.5, 0, 0, 0))))
+    code = main(["synth", "--out", str(tmp_path / "cli"), "--frames", "2", "--scale", "0.1", "--fov", "120",
+                 "--distortion", "-0.5", "0", "0", "0"])
+    assert code == 2 and "one-to-one" in capsys.readouterr().err
+    assert not (tmp_path / "cli").exists()
+
+
+def _t_err_percent(root, camera: SynthCamera) -> float:
+    """The default method's t_err on seed 4's 20 s drive (164 m, 496x150) seen by ``camera``."""
+    frames = (DRIVE_PATH_FRAMES - 1) * round(camera.fps / 10) + 1
+    synthesize(root / "data", ["00"], seed=4, frames=frames, scale=0.4, max_speed_mps=12.0, workers=2, camera=camera)
+    summary = run(RunOptions(out=str(root / "run"), data=str(root / "data"), sequence="00",
+                             lengths_m=(25.0, 50.0, 75.0, 100.0)))
+    return summary["metrics"]["t_err_percent"]
+
+
+@pytest.fixture(scope="module")
+def kitti_camera_t_err(tmp_path_factory) -> float:
+    return _t_err_percent(tmp_path_factory.mktemp("kitti_camera"), SynthCamera())
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("camera", [
+    pytest.param(SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL), id="10fps"),
+    # measured 7.66 % against 4.40 %: at 30 fps each step's road flow is 3x smaller (the lead reworks the
+    # method's frame-rate handling; strict, so the fix shows up here)
+    pytest.param(PHONE_LIKE, id="30fps", marks=pytest.mark.xfail(strict=True, reason="default method at 30 fps")),
+])
+def test_default_method_on_a_low_wide_distorted_camera_is_within_1_3x_of_kitti_camera(camera, kitti_camera_t_err,
+                                                                                       tmp_path):
+    t_err = _t_err_percent(tmp_path, camera)
+    assert t_err <= 1.3 * kitti_camera_t_err, f"t_err {t_err:.2f} % against {kitti_camera_t_err:.2f} % (KITTI's)"
