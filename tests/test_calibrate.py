@@ -1,6 +1,7 @@
 """flowvo calibrate: known cameras recovered from rendered boards, refusals of views that cannot determine
 a camera, and the file it writes read back by ``flowvo run --calib``'s reader."""
 
+import os
 from pathlib import Path
 
 import cv2
@@ -154,6 +155,18 @@ def test_cli_writes_the_file_run_reads_back_identically(board_folder, checkerboa
     refused = [*args, "--force", "--rows", "5"]  # a board that is not there
     assert main(refused) == 2 and read_camera_file(out) == camera  # the earlier file stays
     assert main([*args, "--force"]) == 0
+
+
+def test_file_names_that_are_not_utf8_are_read_and_printed(board_folder, tmp_path, capsys):
+    folder = tmp_path / os.fsdecode(b"views \xff")
+    folder.mkdir()
+    for i, file in enumerate(sorted(board_folder.glob("*.png"))):
+        (folder / os.fsdecode(b"\xfe view %02d.png" % i)).write_bytes(file.read_bytes())
+    out = folder / os.fsdecode(b"\xfd.yaml")
+    assert main(["calibrate", str(folder), "--rows", str(ROWS), "--cols", str(COLS), "--out", str(out), "-q"]) == 0
+    printed = capsys.readouterr().out
+    assert "found in 15 of 15 images" in printed and "views \\xff/\\xfe view" in printed  # the worst view
+    assert "views \\xff/\\xfd.yaml" in printed and read_camera_file(out).image_size_hw == SIZE_HW
 
 
 def test_a_video_of_the_board_calibrates(checkerboard_views, tmp_path):

@@ -435,7 +435,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     from flowvo.calibration.board import Board
     from flowvo.calibration.calibrate import COEFFICIENT_NAMES, calibrate
     from flowvo.calibration.files import format_ros_calibration
-    from flowvo.calibration.images import open_calibration_images
+    from flowvo.calibration.images import open_calibration_images, printable
     from flowvo.outputs import prepare_output_file
 
     board = Board(args.board, args.rows, args.cols, args.square, args.marker, args.dictionary)
@@ -462,9 +462,10 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
         print(f"warning: {warning}")
     write_text_atomic(out, format_ros_calibration(i, d, result.image_size_hw, args.camera_name, args.camera_height,
                                                   result.rms_px))
-    print(f"wrote {out}")
+    print(f"wrote {printable(out)}")
     height = "" if args.camera_height is not None else " --camera-height M"
-    print(f"use it: flowvo run --video DRIVE.mp4 --calib {out}{height} --out runs/DRIVE  (frames of {w}x{h})")
+    print(f"use it: flowvo run --video DRIVE.mp4 --calib {printable(out)}{height} --out runs/DRIVE  "
+          f"(frames of {w}x{h})")
     return 0
 
 

@@ -2,7 +2,8 @@
 
 - Folder: its files ending in one of :data:`IMAGE_SUFFIXES` (any case), sorted by name; other files are
   ignored. Each is decoded from its bytes (``cv2.imdecode``), so no file name can trip OpenCV's path
-  handling; a file that does not decode is an error naming it.
+  handling; a file that does not decode is an error naming it. Labels show names that are not UTF-8
+  with ``\\xNN`` escapes, so they can always be printed.
 - Video: any file OpenCV reads (:func:`flowvo.sources.video.open_video_source`); neighbouring frames are
   near-duplicates, so by default only every :data:`DEFAULT_VIDEO_EVERY`-th is looked at.
 Images are read one at a time, as the calibration consumes them (a long video never sits in memory).
@@ -38,11 +39,11 @@ class CalibrationImages:
     def frames(self) -> Iterator[tuple[str, np.ndarray]]:
         if self.files is not None:
             for file in self.files:
-                yield str(file), read_grey_image(file)
+                yield printable(file), read_grey_image(file)
             return
         for index, (_, image) in enumerate(open_video_source(self.path).frames()):
             if index % self.every == 0:
-                yield f"{self.path} frame {index}", image
+                yield f"{printable(self.path)} frame {index}", image
 
 
 def open_calibration_images(path: str | Path, every: int | None = None) -> CalibrationImages:
@@ -69,6 +70,11 @@ def open_calibration_images(path: str | Path, every: int | None = None) -> Calib
     every = every or DEFAULT_VIDEO_EVERY
     count = None if video.frame_count is None else -(-video.frame_count // every)
     return CalibrationImages(path, None, every, count)
+
+
+def printable(path: Path) -> str:
+    """``path`` as text that can always be printed: bytes of a name that is not UTF-8 as ``\\xNN``."""
+    return str(path).encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
 
 
 def read_grey_image(path: Path) -> np.ndarray:
