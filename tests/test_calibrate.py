@@ -15,7 +15,6 @@ from calibration_boards import (
     varied_poses,
     viewing_rays,
 )
-from test_video_source import write_video
 
 from flowvo.calibration import board as board_module
 from flowvo.calibration import calibrate as calibrate_module
@@ -169,12 +168,18 @@ def test_file_names_that_are_not_utf8_are_read_and_printed(board_folder, tmp_pat
     assert "views \\xff/\\xfd.yaml" in printed and read_camera_file(out).image_size_hw == SIZE_HW
 
 
-def test_a_video_of_the_board_calibrates(checkerboard_views, tmp_path):
-    path = tmp_path / "board.avi"
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 10, (SIZE_HW[1], SIZE_HW[0]))
-    for image in checkerboard_views:
+def write_video(path: Path, images: list[np.ndarray]) -> None:
+    """A lossless FFV1 video of grey ``images``."""
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 10, (images[0].shape[1], images[0].shape[0]))
+    assert writer.isOpened()
+    for image in images:
         writer.write(cv2.cvtColor(image, cv2.COLOR_GRAY2BGR))
     writer.release()
+
+
+def test_a_video_of_the_board_calibrates(checkerboard_views, tmp_path):
+    path = tmp_path / "board.avi"
+    write_video(path, checkerboard_views)
     images = open_calibration_images(path, every=1)
     assert images.count == 15
     result = calibrate(images.frames(), CHECKERBOARD)
@@ -207,7 +212,7 @@ def test_images_without_the_board_are_refused(tmp_path, capsys):
 
 
 def test_a_video_without_the_board_is_refused(tmp_path, capsys):
-    write_video(tmp_path / "drive.avi", [np.zeros((48, 80, 3), np.uint8)] * 3)
+    write_video(tmp_path / "drive.avi", [np.zeros((48, 80), np.uint8)] * 3)
     message = refusal([str(tmp_path / "drive.avi"), "--out", str(tmp_path / "c.yaml"), "--every", "1"], capsys)
     assert "not found in any of the 3 images" in message
 
