@@ -97,6 +97,12 @@ def test_a_large_reprojection_error_is_a_warning_not_a_refusal(checkerboard_view
     assert len(result.warnings) == 1 and "RMS reprojection error" in result.warnings[0]
 
 
+def test_rational_model_gives_eight_coefficients_and_the_same_camera(checkerboard_views):
+    result = calibrate(labelled(checkerboard_views), CHECKERBOARD, "rational_polynomial")
+    assert result.distortion.model == "rational_polynomial" and len(result.distortion.coefficients) == 8
+    assert result.intrinsics.fx == pytest.approx(PLUMB_BOB.intrinsics.fx, rel=0.01) and result.rms_px < 0.2
+
+
 def test_large_frames_are_searched_downscaled_and_refined_at_full_resolution(checkerboard_views, monkeypatch,
                                                                             checkerboard_result):
     monkeypatch.setattr(board_module, "DETECT_MAX_SIDE_PX", 400)  # the 640x480 views are searched at 400x300
