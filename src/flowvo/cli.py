@@ -297,6 +297,75 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_run)
 
 
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from flowvo.batch import discover_drives, run_batch
+    from flowvo.drive import RunOptions
+
+    drives = discover_drives(args.inputs, exclude=args.out)
+    defaults = RunOptions(out=args.out, topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib,
+                          fx=args.fx, fy=args.fy, cx=args.cx, cy=args.cy, camera_height_m=args.camera_height,
+                          method=args.method, model=args.model, flow_method=args.flow_method,
+                          classical_scale=args.scale_from, max_frames=args.max_frames, mcap=args.mcap,
+                          frame_id=args.frame_id, child_frame_id=args.child_frame_id,
+                          lengths_m=tuple(sorted(set(args.lengths))))
+    rows = run_batch(drives, args.out, defaults, workers=args.workers, ray=args.ray, retry_failed=args.retry_failed,
+                     force=args.force)
+    counts = {status: sum(row.status == status for row in rows) for status in ("ok", "failed", "pending")}
+    reused = sum(row.reused for row in rows)
+    print(f"{len(rows)} drives: {counts['ok']} ok ({reused} from an earlier run), {counts['failed']} failed, "
+          f"{counts['pending']} not run")
+    for row in rows:
+        if row.status == "failed":
+            print(f"failed: {row.drive}: {row.error}")
+    print(f"summary: {args.out}/summary.csv, {args.out}/summary.json, {args.out}/index.html")
+    return 1 if counts["failed"] else 0
+
+
+def _add_batch(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("batch", help="odometry on many drives (folders, videos, bags, globs, a manifest): one output "
+                                     "folder each, fleet summary, resumable, local processes or Ray")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="a KITTI dataset root or sequence folder, a video file, a bag, a folder searched for these, "
+                        "a glob (quote it), or a manifest (.csv or .jsonl: path, kind, sequence, name, calib, fx, fy, "
+                        "cx, cy, camera_height_m, method, topic, camera_info_topic)")
+    p.add_argument("--out", required=True, help="batch folder: drives/NAME/ (as flowvo run writes), summary.csv, "
+                                                "summary.json, index.html")
+    p.add_argument("--workers", type=POSITIVE_INT,
+                   help="drives at once (default: one worker process per core; with --ray: tasks in flight, "
+                        "default twice the cluster's CPUs)")
+    p.add_argument("--ray", metavar="ADDRESS",
+                   help="run the drives as Ray tasks: 'auto' (a Ray instance on this machine, for this batch) or a "
+                        "running cluster's HOST:PORT / ray://HOST:PORT (needs pip install 'flowvo[ray]'; inputs and "
+                        "--out on a file system every node sees at the same path)")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--retry-failed", action="store_true",
+                       help="run only the drives the last summary marks failed (others are kept or left pending)")
+    again.add_argument("--force", action="store_true",
+                       help="recompute every drive (otherwise complete results are kept, and results made with "
+                            "other settings are refused)")
+    options = p.add_argument_group("drive options (every drive; a manifest line overrides them for its drive)")
+    options.add_argument("--method", choices=("flowvo", "flowvo-geometry", "cnn", "classical"), default="flowvo",
+                         help="as for flowvo run (default flowvo)")
+    options.add_argument("--model", help="checkpoint for --method cnn (default: the packaged model)")
+    options.add_argument("--flow-method", help="flow method, as for flowvo run")
+    options.add_argument("--scale-from", choices=("height", "gt"), default="height",
+                         help="classical method's metric scale (as for flowvo run)")
+    options.add_argument("--calib", help="KITTI calib.txt (its P0) for videos and bags (a KITTI sequence has its own)")
+    for name in ("fx", "fy", "cx", "cy"):
+        options.add_argument(f"--{name}", type=float, help=f"{name} in pixels, for videos and bags")
+    options.add_argument("--camera-height", type=POSITIVE_FLOAT, metavar="M",
+                         help="camera height above the road in metres (default: the calibration's, else 1.65)")
+    options.add_argument("--topic", help="image topic of the bags")
+    options.add_argument("--camera-info-topic", help="CameraInfo topic of the bags, for their intrinsics")
+    options.add_argument("--max-frames", type=FRAME_COUNT, help="stop each drive after this many frames")
+    options.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
+                         help="evaluation sub-path lengths in metres, where ground truth exists (default 100..800)")
+    options.add_argument("--mcap", action="store_true", help="also write NAME.mcap per drive (always for bags)")
+    options.add_argument("--frame-id", default="odom", help="MCAP parent frame id (default odom)")
+    options.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id")
+    p.set_defaults(func=_cmd_batch)
+
+
 def _cmd_export(args: argparse.Namespace) -> int:
     from flowvo.model.checkpoint import packaged_model_path, read_checkpoint, write_slim_checkpoint
     from flowvo.model.export import export_onnx, export_torchscript
@@ -416,7 +485,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
 
 
 SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_demo, _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_export, _add_report,
+    _add_demo, _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_batch, _add_export, _add_report,
     _add_bench,
 ]
 
