@@ -35,8 +35,9 @@ def frames(count=25):
     return [(0.1 * i + 0.003 * i * i, rng.integers(0, 255, (8, 12)).astype(np.uint8)) for i in range(count)]
 
 
-def test_stream_poses_equal_the_sequential_stages():
-    result = stream_odometry(iter(frames()), CountingStep())
+@pytest.mark.parametrize("overlap", [True, False])
+def test_stream_poses_equal_the_sequential_stages(overlap):
+    result = stream_odometry(iter(frames()), CountingStep(), overlap=overlap)
     step, pose, expected = CountingStep(), np.eye(4), [np.eye(4)]
     data = frames()
     for (t0, a), (t1, b) in zip(data, data[1:], strict=False):

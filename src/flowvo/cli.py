@@ -255,15 +255,18 @@ def _add_train(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_train)
 
 
-def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = DEFAULT_METHOD) -> None:
-    """The drive, camera and method options of ``run``, ``bench`` (and everything that runs a drive)."""
-    drive = p.add_argument_group("drive (one of)")
-    drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
-    drive.add_argument("--sequence", help="sequence name under DATA/sequences, e.g. 07")
-    drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy)")
-    drive.add_argument("--bag", help="a ROS 1 .bag, a ROS 2 bag folder or an .mcap (with --topic)")
-    drive.add_argument("--topic", help="image topic of --bag (sensor_msgs/Image or CompressedImage)")
-    drive.add_argument("--camera-info-topic", help="sensor_msgs/CameraInfo topic of --bag (intrinsics, distortion)")
+def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = DEFAULT_METHOD,
+                       one_drive: bool = True) -> None:
+    """The drive, camera and method options of ``run``, ``bench`` and ``batch`` (``one_drive`` False: no
+    drive options but the bag topics, which apply to every bag of a batch)."""
+    drive = p.add_argument_group("drive (one of)" if one_drive else "bags")
+    if one_drive:
+        drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
+        drive.add_argument("--sequence", help="sequence name under DATA/sequences, e.g. 07")
+        drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy)")
+        drive.add_argument("--bag", help="a ROS 1 .bag, a ROS 2 bag folder or an .mcap (with --topic)")
+    drive.add_argument("--topic", help="image topic of the bag (sensor_msgs/Image or CompressedImage)")
+    drive.add_argument("--camera-info-topic", help="sensor_msgs/CameraInfo topic of the bag (intrinsics, distortion)")
     camera = p.add_argument_group("camera (pixels of the frames; for a KITTI folder these override its calib.txt)")
     camera.add_argument("--calib", help="calibration file: KITTI calib.txt, OpenCV FileStorage YAML/XML, ROS "
                                         "camera_calibration YAML (what 'flowvo calibrate' writes) or Kalibr camchain")
@@ -286,8 +289,9 @@ def _run_options(args: argparse.Namespace, out: str) -> RunOptions:
     """RunOptions from the parsed drive options (see :func:`_add_drive_options`)."""
     from flowvo.drive import RunOptions
 
-    return RunOptions(out=out, data=args.data, sequence=args.sequence, video=args.video, bag=args.bag,
-                      topic=args.topic, camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
+    return RunOptions(out=out, data=getattr(args, "data", None), sequence=getattr(args, "sequence", None),
+                      video=getattr(args, "video", None), bag=getattr(args, "bag", None), topic=args.topic,
+                      camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
                       fy=args.fy, cx=args.cx, cy=args.cy, distortion=tuple(args.dist) if args.dist else None,
                       distortion_model=args.distortion_model, camera_height_m=args.camera_height,
                       method=getattr(args, "method", DEFAULT_METHOD), model=args.model, flow_method=args.flow_method,
@@ -343,6 +347,60 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id")
     _force_flag(p, "this drive's earlier result in --out (poses, timing, run.json, eval_NAME/, NAME.mcap)")
     p.set_defaults(func=_cmd_run)
+
+
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from flowvo.batch import discover_drives, run_batch
+
+    drives = discover_drives(args.inputs, exclude=args.out)
+    defaults = _run_options(args, args.out)
+    defaults.mcap, defaults.frame_id, defaults.child_frame_id = args.mcap, args.frame_id, args.child_frame_id
+    defaults.lengths_m = tuple(sorted(set(args.lengths)))
+    rows = run_batch(drives, args.out, defaults, workers=args.workers, ray=args.ray, retry_failed=args.retry_failed,
+                     force=args.force)
+    counts = {status: sum(row.status == status for row in rows) for status in ("ok", "failed", "pending")}
+    reused = sum(row.reused for row in rows)
+    print(f"{len(rows)} drives: {counts['ok']} ok ({reused} from an earlier run), {counts['failed']} failed, "
+          f"{counts['pending']} not run")
+    for row in rows:
+        if row.status == "failed":
+            print(f"failed: {row.drive}: {row.error}")
+    print(f"summary: {args.out}/summary.csv, {args.out}/summary.json, {args.out}/index.html")
+    return 1 if counts["failed"] else 0
+
+
+def _add_batch(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("batch", help="odometry on many drives (folders, videos, bags, globs, a manifest): one output "
+                                     "folder each, fleet summary, resumable, local processes or Ray")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="a KITTI dataset root or sequence folder, a video file, a bag, a folder searched for these, "
+                        "a glob (quote it), or a manifest (.csv or .jsonl: path, kind, sequence, name, calib, fx, fy, "
+                        "cx, cy, camera_height_m, method, topic, camera_info_topic)")
+    p.add_argument("--out", required=True, help="batch folder: drives/NAME/ (as flowvo run writes), summary.csv, "
+                                                "summary.json, index.html")
+    p.add_argument("--workers", type=POSITIVE_INT,
+                   help="drives at once (default: one worker process per core; with --ray: tasks in flight, "
+                        "default twice the cluster's CPUs)")
+    p.add_argument("--ray", metavar="ADDRESS",
+                   help="run the drives as Ray tasks: 'auto' (a Ray instance on this machine, for this batch) or a "
+                        "running cluster's HOST:PORT / ray://HOST:PORT (needs pip install 'flowvo[ray]'; inputs and "
+                        "--out on a file system every node sees at the same path)")
+    again = p.add_mutually_exclusive_group()
+    again.add_argument("--retry-failed", action="store_true",
+                       help="run only the drives the last summary marks failed (others are kept or left pending)")
+    again.add_argument("--force", action="store_true",
+                       help="recompute every drive (otherwise complete results are kept, and results made with "
+                            "other settings are refused)")
+    _add_drive_options(p, one_drive=False)  # every drive; a manifest line overrides them for its drive
+    p.add_argument("--scale-from", choices=("height", "gt"), default="height",
+                   help="classical method's metric scale: the camera height, or GT step lengths (labelled)")
+    p.add_argument("--max-frames", type=FRAME_COUNT, help="stop each drive after this many frames")
+    p.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
+                   help="evaluation sub-path lengths in metres, where ground truth exists (default 100..800)")
+    p.add_argument("--mcap", action="store_true", help="also write NAME.mcap per drive (always for bags)")
+    p.add_argument("--frame-id", default="odom", help="MCAP parent frame id")
+    p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id")
+    p.set_defaults(func=_cmd_batch)
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
@@ -522,7 +580,7 @@ def _add_calibrate(sub: argparse._SubParsersAction) -> None:
 
 
 SUBCOMMANDS: list[Callable[[argparse._SubParsersAction], None]] = [
-    _add_demo, _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_export, _add_report,
+    _add_demo, _add_eval, _add_synth, _add_flow, _add_train, _add_run, _add_batch, _add_export, _add_report,
     _add_bench, _add_calibrate,
 ]
 

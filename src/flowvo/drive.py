@@ -47,6 +47,7 @@ class RunOptions:
     max_frames: int | None = None
     lengths_m: tuple[float, ...] = SEGMENT_LENGTHS_M  # evaluation sub-paths (the devkit's by default)
     force: bool = False  # replace the earlier result of this drive in ``out`` (else refused)
+    overlap_stages: bool = True  # read frames in a thread beside the flow stage (batch workers: one core each)
     mcap: bool = False
     frame_id: str = "odom"
     child_frame_id: str = "camera_optical"

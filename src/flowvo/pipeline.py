@@ -39,7 +39,8 @@ def run(options: RunOptions) -> dict:
         check_names(options.frame_id, options.child_frame_id)
     produces = run_outputs(source.name) + ([f"{source.name}.mcap"] if write_mcap else [])
     out = prepare_output_dir(options.out, produces, options.force, dataset=options.data)
-    result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name)
+    result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name,
+                             overlap=options.overlap_stages)
     trajectory = Trajectory.from_poses(result.T_world_cam)
     write_kitti_poses(out / f"{source.name}.txt", trajectory)
     write_tum_trajectory(out / f"{source.name}.tum", trajectory, result.timestamps_s)

@@ -98,3 +98,18 @@ def save_evaluation_plots(evaluation, out: Path, name: str = "prediction") -> li
     written += plot_error_curves({name: evaluation.metrics["per_speed"]}, "speed_mps", "speed [m/s]", "speed", out)
     written.append(plot_frame_error_histograms({name: evaluation.frame_errors}, out / "frame_error_histograms.png"))
     return written
+
+
+def plot_path_thumbnail(positions_m: np.ndarray, gt_positions_m: np.ndarray | None, title: str, path: Path) -> Path:
+    """A small bird's-eye x-z plot (metres) of one drive's camera centres (N, 3), ground truth in black when
+    given; the start is marked."""
+    figure, axis = plt.subplots(figsize=(2.2, 2.2))
+    if gt_positions_m is not None:
+        axis.plot(gt_positions_m[:, 0], gt_positions_m[:, 2], "k-", lw=1.2)
+    axis.plot(positions_m[:, 0], positions_m[:, 2], "-", color="tab:blue", lw=1.2)
+    axis.plot(positions_m[0, 0], positions_m[0, 2], "ks", ms=4)
+    axis.set_aspect("equal", adjustable="datalim")
+    axis.tick_params(labelsize=6)
+    axis.grid(alpha=0.3)
+    axis.set_title(title, fontsize=7)
+    return _save(figure, path)

@@ -24,7 +24,16 @@ def set_progress_enabled(enabled: bool) -> None:
     _enabled = enabled
 
 
+def _visible() -> bool:
+    return _enabled and sys.stderr is not None and sys.stderr.isatty()
+
+
 def progress(items: Iterable[T], desc: str, total: int | None = None, unit: str = "it") -> Iterator[T]:
     """Iterate over ``items`` with a tqdm bar on stderr when progress is enabled and stderr is a terminal."""
-    visible = _enabled and sys.stderr is not None and sys.stderr.isatty()
-    return iter(tqdm(items, desc=desc, total=total, unit=unit, disable=not visible, leave=False, file=sys.stderr))
+    return iter(tqdm(items, desc=desc, total=total, unit=unit, disable=not _visible(), leave=False, file=sys.stderr))
+
+
+def progress_bar(desc: str, total: int | None = None, unit: str = "it") -> tqdm:
+    """A bar advanced by hand (``update(n)``, ``set_postfix_str(text)``, ``close()``), drawn under the same
+    rules as :func:`progress`."""
+    return tqdm(desc=desc, total=total, unit=unit, disable=not _visible(), leave=False, file=sys.stderr)

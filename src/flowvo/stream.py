@@ -1,7 +1,8 @@
 """Stream a frame source through an odometry step as a three-stage pipeline: a reader thread decodes and
 prepares frames, a flow thread estimates the flow of each pair, and the caller's thread turns flows into
 motions in frame order and chains them. OpenCV and torch release the GIL, so on two cores the stages
-overlap; the poses are exactly those of running the stages one after another.
+overlap; the poses are exactly those of running the stages one after another (which ``overlap=False``
+does, in the caller's thread).
 """
 
 from __future__ import annotations
@@ -9,8 +10,9 @@ from __future__ import annotations
 import queue
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
+from typing import Any
 
 import cv2
 import numpy as np
@@ -43,10 +45,10 @@ class StreamResult:
 class _Stage:
     """A producer thread that feeds a bounded queue; exceptions travel to the consumer; ``cancel`` stops it."""
 
-    def __init__(self, produce: Callable[[Callable[[object], bool]], None]) -> None:
+    def __init__(self, items: Iterator) -> None:
         self.queue: queue.Queue = queue.Queue(maxsize=_QUEUE_DEPTH)
         self.cancelled = threading.Event()
-        self.thread = threading.Thread(target=self._run, args=(produce,), daemon=True)
+        self.thread = threading.Thread(target=self._run, args=(items,), daemon=True)
         self.thread.start()
 
     def _put(self, item: object) -> bool:
@@ -58,9 +60,11 @@ class _Stage:
                 continue
         return False
 
-    def _run(self, produce: Callable[[Callable[[object], bool]], None]) -> None:
+    def _run(self, items: Iterator) -> None:
         try:
-            produce(self._put)
+            for item in items:
+                if not self._put(item):
+                    break
         except BaseException as error:  # handed to the consumer, which re-raises it
             self._put(error)
         self._put(_END)
@@ -77,59 +81,70 @@ class _Stage:
         self.thread.join(timeout=10.0)
 
 
-def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep, total: int | None = None,
-                    max_frames: int | None = None, label: str = "odometry") -> StreamResult:
-    """Run ``step`` over ``frames`` ((time_s, grey image), in order) and chain the motions."""
+def _read(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep,
+          max_frames: int | None) -> Iterator[tuple[float, Any, float]]:
+    """Yield ``(time_s, prepared frame, seconds reading and preparing it)``, timestamps checked."""
+    iterator, count, last_time_s = iter(frames), 0, None
+    while max_frames is None or count < max_frames:
+        start = time.perf_counter()
+        item = next(iterator, None)
+        if item is None:
+            return
+        time_s, image = item
+        if last_time_s is not None and not time_s > last_time_s:
+            raise FlowvoError(f"timestamps must increase: frame {count} at {time_s:.6f} s follows "
+                              f"{last_time_s:.6f} s")
+        prepared = step.prepare(image)
+        yield time_s, prepared, time.perf_counter() - start
+        count, last_time_s = count + 1, time_s
 
-    def read(put: Callable[[object], bool]) -> None:
-        iterator, count, last_time_s = iter(frames), 0, None
-        while max_frames is None or count < max_frames:
+
+def _motions(prepared_frames: Iterable[tuple[float, Any, float]],
+             step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, dict[str, float]]]:
+    """Yield ``(time_s, motion from the previous frame (None for the first), seconds per stage)``."""
+    previous, previous_time_s = None, None
+    for time_s, prepared, read_s in prepared_frames:
+        seconds, motion = {"image_read": read_s}, None
+        if previous is not None:
             start = time.perf_counter()
-            item = next(iterator, None)
-            if item is None:
-                return
-            time_s, image = item
-            if last_time_s is not None and not time_s > last_time_s:
-                raise FlowvoError(f"timestamps must increase: frame {count} at {time_s:.6f} s follows "
-                                  f"{last_time_s:.6f} s")
-            prepared = step.prepare(image)
-            if not put((time_s, prepared, time.perf_counter() - start)):
-                return
-            count, last_time_s = count + 1, time_s
+            flow = step.flow(previous, prepared)
+            middle = time.perf_counter()
+            motion = step.motion((previous_time_s, time_s), previous, flow)
+            seconds.update({"flow": middle - start, step.motion_stage: time.perf_counter() - middle})
+        yield time_s, motion, seconds
+        previous, previous_time_s = prepared, time_s
 
-    def estimate_motion(put: Callable[[object], bool]) -> None:
-        previous, previous_time_s = None, None
-        for time_s, prepared, read_s in reader:
-            seconds, motion = {"image_read": read_s}, None
-            if previous is not None:
-                start = time.perf_counter()
-                flow = step.flow(previous, prepared)
-                middle = time.perf_counter()
-                motion = step.motion((previous_time_s, time_s), previous, flow)
-                seconds.update({"flow": middle - start, step.motion_stage: time.perf_counter() - middle})
-            if not put((time_s, motion, seconds)):
-                return
-            previous, previous_time_s = prepared, time_s
 
+def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep, total: int | None = None,
+                    max_frames: int | None = None, label: str = "odometry", overlap: bool = True) -> StreamResult:
+    """Run ``step`` over ``frames`` ((time_s, grey image), in order) and chain the motions.
+
+    ``overlap``: read and prepare frames in one thread and estimate motions in another, beside the caller's
+    (False: all in the caller's thread, for a process that should use one core, as a batch worker).
+    """
     # One BLAS thread: OpenBLAS's idle threads spin after each small matrix product and slowed the flow
     # stage 1.5x (56 -> 85 frames/s on real KITTI frames). OpenCV's pool as the step asks: a step whose
     # stages balance across the two threads runs faster with one OpenCV thread per call (default method:
-    # 99 -> 101-102 frames/s), one dominated by a single big flow call runs slower (cnn 76 -> 64).
+    # 99 -> 101-102 frames/s), one dominated by a single big flow call runs slower (cnn 76 -> 64). Without
+    # overlap, OpenCV keeps the caller's setting.
     opencv_threads = cv2.getNumThreads()
-    if step.opencv_threads is not None:
+    if step.opencv_threads is not None and overlap:
         cv2.setNumThreads(step.opencv_threads)
     try:
         with threadpool_limits(limits=1, user_api="blas"):
             wall_start = time.perf_counter()
-            reader = _Stage(read)
-            motions = _Stage(estimate_motion)
-            return _chain(motions, reader, total, label, wall_start)
+            if not overlap:
+                return _chain(_motions(_read(frames, step, max_frames), step), [], total, label, wall_start)
+            reader = _Stage(_read(frames, step, max_frames))
+            motions = _Stage(_motions(reader, step))
+            return _chain(motions, [reader, motions], total, label, wall_start)
     finally:
         cv2.setNumThreads(opencv_threads)
 
 
-def _chain(motions: _Stage, reader: _Stage, total: int | None, label: str, wall_start: float) -> StreamResult:
-    """Chain the motions into poses in frame order (the caller's thread)."""
+def _chain(motions: Iterable[tuple[float, np.ndarray | None, dict[str, float]]], stages: list[_Stage],
+           total: int | None, label: str, wall_start: float) -> StreamResult:
+    """Chain the motions into poses in frame order (the caller's thread); the ``stages`` are stopped after."""
     seconds = dict.fromkeys(STAGES, 0.0)
     poses: list[np.ndarray] = []
     times: list[float] = []
@@ -142,8 +157,8 @@ def _chain(motions: _Stage, reader: _Stage, total: int | None, label: str, wall_
                 seconds[stage] += value
             times.append(time_s)
     finally:
-        reader.cancel()
-        motions.cancel()
+        for stage in stages:
+            stage.cancel()
     if not poses:
         raise FlowvoError("the drive has no frames")
     return StreamResult(np.stack(poses), np.asarray(times), seconds, time.perf_counter() - wall_start)

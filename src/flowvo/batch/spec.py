@@ -1,0 +1,99 @@
+"""One drive of a batch: where its frames are, its output name, and the ``flowvo run`` options it runs with.
+
+A batch has defaults (the drive options of ``flowvo run``); a manifest line may override some of them for
+its drive (:data:`SETTING_FIELDS`). :func:`drive_run_options` makes the exact options ``flowvo run`` gets.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from flowvo.atomic import strict_json_dumps
+from flowvo.drive import RunOptions
+from flowvo.errors import FlowvoError
+
+DRIVE_KINDS = ("kitti", "video", "bag")
+INTRINSICS_FIELDS = ("calib", "fx", "fy", "cx", "cy")
+# RunOptions fields a manifest line may set for its drive (its columns, besides path, kind, sequence, name).
+SETTING_FIELDS = (*INTRINSICS_FIELDS, "camera_height_m", "method", "topic", "camera_info_topic")
+# RunOptions fields that do not shape a drive's result: where it is, where its outputs go, how it is scheduled.
+_NOT_SHAPING_FIELDS = ("out", "force", "data", "video", "bag", "overlap_stages")
+
+
+@dataclass(frozen=True)
+class Drive:
+    """One drive of a batch.
+
+    ``name``: its output folder under ``OUT/drives`` (a plain name, unique in the batch).
+    ``kind``: "kitti" (``path`` a dataset root, with ``sequence``), "video" (``path`` a video file) or
+    "bag" (``path`` a ROS 1 bag, a ROS 2 bag folder or an MCAP file).
+    ``settings``: RunOptions fields of :data:`SETTING_FIELDS` that override the batch defaults for it.
+    """
+
+    name: str
+    kind: str
+    path: str
+    sequence: str | None = None
+    settings: dict[str, Any] = field(default_factory=dict)
+
+
+def drive_folder(out: str | Path, drive: Drive) -> Path:
+    """Where the outputs of ``drive`` go: ``OUT/drives/NAME`` (exactly what ``flowvo run`` writes)."""
+    return Path(out) / "drives" / drive.name
+
+
+def drive_run_options(drive: Drive, defaults: RunOptions, out: str | Path) -> RunOptions:
+    """The options ``flowvo run`` gets for ``drive``: ``defaults`` with its source, its output folder and
+    its settings, its stages in one thread (a batch runs one drive per core). A KITTI sequence takes its
+    intrinsics from its calib.txt (the defaults' are for videos and bags); intrinsics given for the drive
+    replace the defaults' whole (a calib file or the four numbers).
+    """
+    unknown = sorted(set(drive.settings) - set(SETTING_FIELDS))
+    if unknown:
+        raise FlowvoError(f"drive {drive.name}: unknown settings {', '.join(unknown)}")
+    source = {"kitti": {"data": drive.path, "sequence": drive.sequence}, "video": {"video": drive.path},
+              "bag": {"bag": drive.path}}
+    if drive.kind not in source:
+        raise FlowvoError(f"drive {drive.name}: kind {drive.kind!r} is not one of {', '.join(DRIVE_KINDS)}")
+    intrinsics: dict[str, Any] = {}
+    if drive.kind == "kitti" or any(drive.settings.get(name) is not None for name in INTRINSICS_FIELDS):
+        intrinsics = dict.fromkeys(INTRINSICS_FIELDS)
+    fields: dict[str, Any] = {"out": str(drive_folder(out, drive)), "force": False, "overlap_stages": False,
+                              "data": None, "sequence": None, "video": None, "bag": None}
+    fields.update(source[drive.kind])
+    fields.update(intrinsics)
+    fields.update({k: v for k, v in drive.settings.items() if v is not None})
+    return dataclasses.replace(defaults, **fields)
+
+
+def processing_settings(options: RunOptions) -> dict[str, Any]:
+    """The options that shape a drive's result, as JSON values (recorded in the summary, compared on resume):
+    every field except where the drive is, where its outputs go and how its stages are scheduled."""
+    settings = {k: v for k, v in dataclasses.asdict(options).items() if k not in _NOT_SHAPING_FIELDS}
+    return json.loads(strict_json_dumps(settings))
+
+
+def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: dict[tuple, None]) -> None:
+    """Refuse, before anything runs, a drive its options cannot run: a video without intrinsics, a bag
+    without an image topic, unreadable or invalid intrinsics. ``intrinsics_checked`` remembers the
+    intrinsics already read (a fleet shares a few calibration files)."""
+    from flowvo.sources.intrinsics import intrinsics_from_options
+
+    if drive.kind == "bag" and options.topic is None:
+        raise FlowvoError(f"drive {drive.name} is a bag: give --topic IMAGE_TOPIC (or a 'topic' manifest column)")
+    if drive.kind == "kitti":
+        return
+    given = (options.calib, options.fx, options.fy, options.cx, options.cy)
+    if drive.kind == "video" and all(value is None for value in given):
+        raise FlowvoError(f"drive {drive.name} is a video, which carries no intrinsics: give --calib CALIB.txt "
+                          "or --fx --fy --cx --cy (or those manifest columns)")
+    if given not in intrinsics_checked:
+        try:
+            intrinsics_from_options(*given)
+        except FlowvoError as error:
+            raise FlowvoError(f"drive {drive.name}: {error}") from None
+        intrinsics_checked[given] = None
