@@ -28,8 +28,8 @@ from pathlib import Path
 from typing import Any
 
 from flowvo.batch.spec import DRIVE_KINDS
-from flowvo.drive import METHODS
 from flowvo.errors import FlowvoError
+from flowvo.methods import METHODS
 from flowvo.outputs import validate_name
 
 MANIFEST_SUFFIXES = (".csv", ".jsonl", ".ndjson")

@@ -81,19 +81,20 @@ def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: d
     """Refuse, before anything runs, a drive its options cannot run: a video without intrinsics, a bag
     without an image topic, unreadable or invalid intrinsics. ``intrinsics_checked`` remembers the
     intrinsics already read (a fleet shares a few calibration files)."""
-    from flowvo.sources.intrinsics import intrinsics_from_options
+    from flowvo.camera_options import given_camera
 
     if drive.kind == "bag" and options.topic is None:
         raise FlowvoError(f"drive {drive.name} is a bag: give --topic IMAGE_TOPIC (or a 'topic' manifest column)")
     if drive.kind == "kitti":
         return
-    given = (options.calib, options.fx, options.fy, options.cx, options.cy)
-    if drive.kind == "video" and all(value is None for value in given):
+    given = (options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
+             options.distortion_model, options.camera_height_m)
+    if drive.kind == "video" and all(value is None for value in given[:5]):
         raise FlowvoError(f"drive {drive.name} is a video, which carries no intrinsics: give --calib CALIB.txt "
                           "or --fx --fy --cx --cy (or those manifest columns)")
     if given not in intrinsics_checked:
         try:
-            intrinsics_from_options(*given)
+            given_camera(*given)
         except FlowvoError as error:
             raise FlowvoError(f"drive {drive.name}: {error}") from None
         intrinsics_checked[given] = None
