@@ -410,7 +410,10 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from flowvo.bench import benchmark, format_bench_table, write_bench_json
+    from flowvo.outputs import prepare_output_file
 
+    if args.json:  # checked before the benchmark runs: never into the dataset, never over a file unasked
+        prepare_output_file(args.json, args.force, "--json", dataset=args.data)
     rows = benchmark(_run_options(args, ""), args.methods, args.frames, args.repeat)
     print(format_bench_table(rows))
     if args.json:
@@ -427,6 +430,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--frames", type=FRAME_COUNT, default=200, help="frames per run (at least 2)")
     p.add_argument("--repeat", type=POSITIVE_INT, default=3, help="runs per method; the table shows medians")
     p.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
+    _force_flag(p, "an existing --json file")
     p.set_defaults(func=_cmd_bench)
 
 
