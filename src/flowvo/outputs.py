@@ -139,24 +139,39 @@ def remove_outputs(out: str | Path, names: Sequence[str]) -> None:
             _remove(entry)
 
 
+def _swap_in(new: Path, target: Path) -> None:
+    """Move ``new`` to ``target``: a file by one rename over the old one; a folder by moving the old one
+    aside first and removing it after."""
+    if new.is_dir() and (target.exists() or target.is_symlink()):
+        old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
+        os.replace(target, old / target.name)
+        os.replace(new, target)
+        shutil.rmtree(old)
+    else:
+        os.replace(new, target)
+
+
 @contextmanager
-def replace_folder(target: str | Path) -> Iterator[Path]:
-    """Yield a temporary folder beside ``target`` to fill; when the block succeeds it takes ``target``'s
-    place (an earlier folder there is removed only then), when it fails it is removed."""
-    target = Path(target)
-    fresh = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".new", dir=target.parent))
+def staged_outputs(out: str | Path, produces: Sequence[str]) -> Iterator[Path]:
+    """Yield a hidden staging folder in ``out`` to write a whole result into (entries named as in
+    ``produces``). When the block succeeds each entry replaces its namesake in ``out`` and the entries of
+    ``produces`` the new result lacks are removed; when it fails (disk full, Ctrl-C) the staging folder is
+    removed and ``out`` is exactly as before."""
+    out = Path(out)
+    staging = Path(tempfile.mkdtemp(prefix=".flowvo.", suffix=".new", dir=out))
     try:
-        yield fresh
-        if target.exists() or target.is_symlink():
-            old = Path(tempfile.mkdtemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent))
-            os.replace(target, old / target.name)
-            os.replace(fresh, target)
-            shutil.rmtree(old)
-        else:
-            os.replace(fresh, target)
+        yield staging
+        written = [name for name in produces if (staging / name).exists()]
+        for name in written:
+            _swap_in(staging / name, out / name)
+        remove_outputs(out, [name for name in produces if name not in written])
+    except OSError as error:  # named as the user knows it: OUT/NAME, not the staging folder
+        if error.filename is None or not Path(error.filename).is_relative_to(staging):
+            raise
+        raise type(error)(error.errno, error.strerror, str(out / Path(error.filename).relative_to(staging))) \
+            from None
     finally:
-        if fresh.exists():
-            shutil.rmtree(fresh)
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def _lock_holder(handle: IO[str]) -> str:

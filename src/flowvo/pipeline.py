@@ -19,7 +19,7 @@ from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
 from flowvo.methods.base import OdometryStep
-from flowvo.outputs import claim_output_dir, remove_outputs, replace_folder, run_outputs
+from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs
 from flowvo.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -31,7 +31,7 @@ def run(options: RunOptions) -> dict:
 
     Every input is checked (ground truth included) before the output folder is touched; the folder is
     locked while the run writes it, and an earlier result (``force``) is replaced only by the finished new
-    one (see :mod:`flowvo.outputs`).
+    one, whole (see :func:`flowvo.outputs.staged_outputs`).
     """
     from flowvo.stream import stream_odometry
 
@@ -58,15 +58,13 @@ def run(options: RunOptions) -> dict:
             from flowvo.ros.odometry_mcap import check_stamps
 
             check_stamps(result.timestamps_s, where)
-        summary = _write_results(options, drive, step, result, ground_truth, out)
-        remove_outputs(out, [name for name in produces if name not in summary["written"]])  # stale ones last
-    return summary
+        with staged_outputs(out, produces) as staging:
+            return _write_results(options, drive, step, result, ground_truth, staging)
 
 
 def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result: StreamResult,
                    ground_truth: Trajectory | None, out: Path) -> dict:
-    """Write poses, timing, MCAP, evaluation and run.json (last) into ``out``; returns the summary, with
-    the names written under ``written``."""
+    """Write poses, timing, MCAP, evaluation and run.json into ``out``; returns the summary."""
     from flowvo.stream import timing_report
 
     source = drive.source
@@ -75,7 +73,6 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
     write_tum_trajectory(out / f"{source.name}.tum", trajectory, result.timestamps_s)
     timing = timing_report(result)
     write_json_atomic(out / "timing.json", timing)
-    written = [f"{source.name}.txt", f"{source.name}.tum", "timing.json", "run.json"]
     summary = {
         "label": step.label,
         "method": options.method,
@@ -95,15 +92,11 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
                             frame_id=options.frame_id, child_frame_id=options.child_frame_id)
         summary["mcap"] = f"{source.name}.mcap"
-        written.append(summary["mcap"])
     summary.update(step.summary())
     if ground_truth is not None:
         gt = ground_truth.subset(np.arange(result.frames)) if result.frames < len(ground_truth) else ground_truth
         evaluation = evaluate(gt, trajectory, lengths_m=options.lengths_m)
-        with replace_folder(out / f"eval_{source.name}") as folder:
-            save_evaluation(evaluation, folder)
+        save_evaluation(evaluation, out / f"eval_{source.name}")
         summary["metrics"] = {k: evaluation.metrics[k] for k in ("t_err_percent", "r_err_deg_per_m", "ate_rmse_m")}
-        written.append(f"eval_{source.name}")
     write_json_atomic(out / "run.json", summary)
-    summary["written"] = written
     return summary
