@@ -19,6 +19,7 @@ from flowvo.errors import FlowvoError
 from flowvo.kitti.calib import Calibration, read_calibration
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.outputs import validate_name
+from flowvo.text_numbers import parse_float
 from flowvo.trajectory import Trajectory
 
 _FRAME_NAME = re.compile(r"^(\d{6})\.png$")
@@ -101,7 +102,7 @@ class KittiSequence:
                 if not line.strip():
                     continue
                 try:
-                    values.append(float(line))
+                    values.append(parse_float(line.strip()))
                 except ValueError:
                     raise FlowvoError("expected one timestamp in seconds per line", path, line_number) from None
                 if not math.isfinite(values[-1]):
