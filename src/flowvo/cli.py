@@ -47,6 +47,20 @@ FRAME_COUNT = _bounded(int, 2)  # a sequence needs two frames for one motion
 FLOW_SCALE = _bounded(float, 0.0, 2.0, low_open=True)
 IMAGE_SCALE = _bounded(float, 0.0, 4.0, low_open=True)
 POSITIVE_FLOAT = _bounded(float, 0.0, 1e6, low_open=True)
+SUB_PATH_M = _bounded(float, 1.0, 1e5)  # shorter sub-paths measure one frame's noise, not drift (1e-30 m: 1e31 %)
+
+
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """``--help`` shows every option's default, unless the help already says it or there is none."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if default in (None, False, argparse.SUPPRESS) or "default" in text or not action.option_strings:
+            return text
+        shown = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default) \
+            if isinstance(default, list | tuple) else default
+        return f"{text} (default: {shown})".replace("%", "%%") if "%" not in text else text
 
 
 class _Parser(argparse.ArgumentParser):
@@ -79,7 +93,7 @@ def _add_eval(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pred", required=True, help="predicted KITTI pose file (12 floats, or frame index + 12)")
     p.add_argument("--align", choices=("none", "6dof", "7dof"), default="none", help="alignment for ATE only")
     p.add_argument("--out", help="folder for metrics.json, per_frame_errors.csv and PNG plots")
-    p.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, default=list(DEVKIT_LENGTHS_M), metavar="M",
                    help="sub-path lengths in metres (default the devkit's 100 200 ... 800; e.g. 10 20 30 40 50 "
                         "for short drives: the output then says the lengths differ)")
     _force_flag(p, "an earlier evaluation in --out")
@@ -318,7 +332,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scale-from", choices=("height", "gt"), default="height",
                    help="classical method's metric scale: the camera height, or GT step lengths (labelled)")
     p.add_argument("--max-frames", type=FRAME_COUNT, help="stop after this many frames")
-    p.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, default=list(DEVKIT_LENGTHS_M), metavar="M",
                    help="evaluation sub-path lengths in metres (default the devkit's 100..800)")
     p.add_argument("--mcap", action="store_true", help="also write NAME.mcap (nav_msgs/Odometry, /tf, nav_msgs/Path); "
                                                         "always on for --bag")
@@ -331,19 +345,24 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
 def _cmd_export(args: argparse.Namespace) -> int:
     from flowvo.model.checkpoint import packaged_model_path, read_checkpoint, write_slim_checkpoint
     from flowvo.model.export import export_onnx, export_torchscript
+    from flowvo.model.export_format import export_file_format
     from flowvo.outputs import prepare_output_file
 
+    try:
+        file_format = export_file_format(args.out, args.format)
+    except ValueError as error:
+        raise FlowvoError(str(error)) from None
     model = args.model or packaged_model_path()
     read_checkpoint(model)  # a clear error for a missing or foreign file before anything is written
     out = Path(args.out)
     if out.resolve() == Path(model).resolve():
         raise FlowvoError("--out is the --model file itself; write the export elsewhere", out)
-    extra = [out.with_name(out.name + ".json")] if args.format != "slim" else []  # the description
+    extra = [out.with_name(out.name + ".json")] if file_format != "slim" else []  # the description
     for target in (out, *extra):
         prepare_output_file(target, args.force)
-    if args.format == "slim":
+    if file_format == "slim":
         written = [write_slim_checkpoint(model, args.out)]
-    elif args.format == "onnx":
+    elif file_format == "onnx":
         written = export_onnx(model, args.out, not args.no_symmetric, args.opset)
     else:
         written = export_torchscript(model, args.out, not args.no_symmetric)
@@ -353,19 +372,21 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _add_export(sub: argparse._SubParsersAction) -> None:
-    from flowvo.model.export_format import ONNX_OPSET
+    from flowvo.model.export_format import FILE_FORMATS, ONNX_OPSET, ONNX_OPSETS
 
     p = sub.add_parser("export", help="export a checkpoint: ONNX or TorchScript (+ JSON), or a slim float16 checkpoint")
     p.add_argument("--model", help="checkpoint (default: the packaged model)")
     p.add_argument("--out", required=True, help="output file, e.g. model.onnx, model.ts or default.pt")
-    p.add_argument("--format", choices=("onnx", "torchscript", "slim"), default="torchscript",
-                   help="onnx / torchscript: flow (B, 2K, h, w) in pixels of the network input -> motion (B, D) "
-                        "in m and rad, described in OUT.json (onnx needs: pip install 'flowvo[export]'); "
+    p.add_argument("--format", choices=FILE_FORMATS,
+                   help="default: onnx for an .onnx --out, else torchscript. onnx / torchscript: flow "
+                        "(B, 2K, h, w) in pixels of the network input -> motion (B, D) in m and rad, "
+                        "described in OUT.json (onnx needs: pip install 'flowvo[export]'); "
                         "slim: float16 weights + config + normalisation, runnable by flowvo run (not resumable)")
     p.add_argument("--no-symmetric", action="store_true",
                    help="onnx / torchscript: run only the direct pass, not its average with the mirrored one "
                         "(half the network cost; keeps the small constant heading offset the average cancels)")
-    p.add_argument("--opset", type=int, default=ONNX_OPSET, help="onnx: opset version")
+    p.add_argument("--opset", type=_bounded(int, *ONNX_OPSETS), default=ONNX_OPSET,
+                   help=f"onnx: opset version ({ONNX_OPSETS[0]}..{ONNX_OPSETS[1]})")
     _force_flag(p, "an existing --out file")
     p.set_defaults(func=_cmd_export)
 
@@ -452,6 +473,7 @@ def build_parser() -> argparse.ArgumentParser:
         add(sub)
     for command in sub.choices.values():
         command.add_argument("-q", "--quiet", dest="quiet_here", action="store_true", help="no progress bars")
+        command.formatter_class = _DefaultsFormatter
     return parser
 
 
