@@ -394,7 +394,8 @@ def _add_export(sub: argparse._SubParsersAction) -> None:
 def _cmd_report(args: argparse.Namespace) -> int:
     from flowvo.report import write_report
 
-    print(f"report: {write_report(args.runs, args.out, args.force)}")
+    lengths_m = tuple(sorted(set(args.lengths))) if args.lengths else None
+    print(f"report: {write_report(args.runs, args.out, args.force, lengths_m)}")
     return 0
 
 
@@ -402,6 +403,8 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("report", help="one HTML page comparing run folders: tables, paths, error curves, timing")
     p.add_argument("runs", nargs="+", help="output folders of 'flowvo run'")
     p.add_argument("--out", required=True, help="report folder (index.html + PNGs)")
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, metavar="M",
+                   help="sub-path lengths in metres to score (default: each run's own --lengths, from run.json)")
     _force_flag(p, "an earlier report in --out")
     p.set_defaults(func=_cmd_report)
 
