@@ -9,6 +9,7 @@ from pathlib import Path
 from flowvo.errors import FlowvoError
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import sequence_name
+from flowvo.outputs import check_path_text
 from flowvo.synth.camera_path import PathConfig, generate_path
 from flowvo.synth.sequence_writer import SynthSpec, intrinsics, spec_digest, write_sequence
 
@@ -119,7 +120,7 @@ def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | 
     Every plan is made (and every input read) before anything is written; see :func:`check_target` for
     when an existing ``root`` is refused, resumed or (``force``) partly replaced.
     """
-    root = Path(root)
+    root = check_path_text(root, "--out")  # OpenCV crashes the process writing frames under non-UTF-8 names
     canonical = [sequence_name(name) for name in names]
     repeated = sorted({name for name in canonical if canonical.count(name) > 1})
     if repeated:
