@@ -183,11 +183,11 @@ def test_report_escapes_the_runs_text_and_scores_their_own_lengths(a_run, tmp_pa
     assert page.count("</script>") == 1 and page.count("<script") == 1
     embedded = page.split("id='results'>")[1].split("</script>")[0]
     assert json.loads(embedded)[0]["method"] == summary["label"]
-    assert "1, 2 m sub-paths" in page and "t_err_vs_length_0.png" in page  # the run's --lengths, not 100..800
+    assert "1, 2 m sub-paths" in page and "t_err_vs_length_00.png" in page  # the run's --lengths, not 100..800
     summary["sequence"], summary["data"] = "<img src=x onerror=alert(1)>", None  # as a video run names it
     (run / "run.json").write_text(json.dumps(summary))
-    assert cli(capsys, "report", run, "--out", tmp_path / "rep2")[0] == 0
-    assert "<img src=x" not in (tmp_path / "rep2" / "index.html").read_text()
+    refused(capsys, "report", run, "--out", tmp_path / "rep2", says=("run.json", "sequence"))
+    assert not (tmp_path / "rep2").exists()
 
 
 def test_report_of_a_video_run_has_its_path_figure_and_says_video(tmp_path, capsys):
@@ -197,7 +197,7 @@ def test_report_of_a_video_run_has_its_path_figure_and_says_video(tmp_path, caps
     assert cli(capsys, "report", tmp_path / "r", "--out", tmp_path / "rep")[0] == 0
     page = (tmp_path / "rep" / "index.html").read_text()
     assert "v (video)" in page and "v (KITTI)" not in page
-    assert (tmp_path / "rep" / "path_0.png").is_file()
+    assert (tmp_path / "rep" / "path_v.png").is_file()
 
 
 def test_help_shows_defaults(capsys):

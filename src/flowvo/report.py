@@ -57,6 +57,10 @@ def load_run(folder: str | Path, lengths_m: tuple[float, ...] | None = None) -> 
             or not isinstance(summary["data"], str | None) or not isinstance(summary["synthetic"], bool):
         raise FlowvoError("label, sequence and poses must be text, data text or null, synthetic true or false",
                           folder / "run.json")
+    try:
+        validate_name(summary["sequence"], "run.json 'sequence'")
+    except FlowvoError as error:
+        raise FlowvoError(error.message, folder / "run.json") from None
     frames = summary["frames"]
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < MIN_FRAMES:
         raise FlowvoError(f"'frames' must be a whole number of at least {MIN_FRAMES}, got {frames!r}",
@@ -165,10 +169,12 @@ def _timing_table(runs: list[RunRecord]) -> str:
 
 def _figures(runs: list[RunRecord], out: Path) -> list[tuple[str, str]]:
     """Per drive: the bird's-eye paths of every run (with ground truth when there is one), and with ground
-    truth the error curves and histograms. File names are numbered: sequence names are the runs' text."""
+    truth the error curves and histograms; files named after the sequence (and its kind when two drives
+    share a name)."""
     figures = []
     drives = sorted({(r.summary["sequence"], r.kind) for r in runs})
-    for number, (sequence, kind) in enumerate(drives):
+    for sequence, kind in drives:
+        number = sequence if [s for s, _ in drives].count(sequence) == 1 else f"{sequence}_{kind}"
         mine = [r for r in runs if (r.summary["sequence"], r.kind) == (sequence, kind)]
         scored = [r for r in mine if r.evaluation]
         gt = scored[0].evaluation.gt.positions if scored else None
