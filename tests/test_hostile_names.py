@@ -181,7 +181,8 @@ def test_synth_over_another_rendering_refuses_then_force_leaves_a_consistent_dat
     synthesize(tmp_path, ["01"], frames=3, scale=0.1, workers=1, force=True)  # another sequence, kept
     old_frames = tree_digest(tmp_path / "sequences" / "00" / "image_0")
     kept = tree_digest(tmp_path / "sequences" / "01")
-    refused(capsys, *synth(tmp_path, "--seed", "2", "--frames", "9"), says="not empty")
+    refused(capsys, *synth(tmp_path, "--seed", "2", "--frames", "9"),
+            says=("sequence(s) 00 rendered differently", "--force"))
     assert tree_digest(tmp_path / "sequences" / "00" / "image_0") == old_frames
     assert cli(capsys, *synth(tmp_path, "--seed", "2", "--frames", "9", "--force"))[0] == 0
     sequence = KittiSequence(tmp_path, "00")  # the reader's own checks: frames, times and poses agree

@@ -23,6 +23,13 @@ def _default_permissions(path: str) -> None:
     os.chmod(path, 0o666 & ~umask)
 
 
+def _named(error: OSError, target: Path) -> OSError:
+    """``error`` naming ``target`` when it names no file (a full disk fails a write(), which has none)."""
+    if error.filename is None:
+        return type(error)(error.errno, error.strerror or str(error), str(target))
+    return error
+
+
 @contextmanager
 def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
     """Open a temporary file for writing that replaces ``path`` only when the block succeeds."""
@@ -36,6 +43,10 @@ def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
             os.fsync(handle.fileno())
         _default_permissions(tmp_name)
         os.replace(tmp_name, target)
+    except OSError as error:
+        if os.path.exists(tmp_name):
+            os.unlink(tmp_name)
+        raise _named(error, target) from None
     except BaseException:
         if os.path.exists(tmp_name):
             os.unlink(tmp_name)
@@ -86,6 +97,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
         yield Path(tmp_name)
         _default_permissions(tmp_name)
         os.replace(tmp_name, target)
+    except OSError as error:
+        if os.path.exists(tmp_name):
+            os.unlink(tmp_name)
+        raise _named(error, target) from None
     except BaseException:
         if os.path.exists(tmp_name):
             os.unlink(tmp_name)

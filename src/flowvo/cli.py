@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import signal
 import sys
+import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -45,6 +47,20 @@ FRAME_COUNT = _bounded(int, 2)  # a sequence needs two frames for one motion
 FLOW_SCALE = _bounded(float, 0.0, 2.0, low_open=True)
 IMAGE_SCALE = _bounded(float, 0.0, 4.0, low_open=True)
 POSITIVE_FLOAT = _bounded(float, 0.0, 1e6, low_open=True)
+SUB_PATH_M = _bounded(float, 1.0, 1e5)  # shorter sub-paths measure one frame's noise, not drift (1e-30 m: 1e31 %)
+
+
+class _DefaultsFormatter(argparse.HelpFormatter):
+    """``--help`` shows every option's default, unless the help already says it or there is none."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if default in (None, False, argparse.SUPPRESS) or "default" in text or not action.option_strings:
+            return text
+        shown = " ".join(f"{v:g}" if isinstance(v, float) else str(v) for v in default) \
+            if isinstance(default, list | tuple) else default
+        return f"{text} (default: {shown})".replace("%", "%%") if "%" not in text else text
 
 
 class _Parser(argparse.ArgumentParser):
@@ -77,7 +93,7 @@ def _add_eval(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--pred", required=True, help="predicted KITTI pose file (12 floats, or frame index + 12)")
     p.add_argument("--align", choices=("none", "6dof", "7dof"), default="none", help="alignment for ATE only")
     p.add_argument("--out", help="folder for metrics.json, per_frame_errors.csv and PNG plots")
-    p.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, default=list(DEVKIT_LENGTHS_M), metavar="M",
                    help="sub-path lengths in metres (default the devkit's 100 200 ... 800; e.g. 10 20 30 40 50 "
                         "for short drives: the output then says the lengths differ)")
     _force_flag(p, "an earlier evaluation in --out")
@@ -339,7 +355,7 @@ def _add_run(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scale-from", choices=("height", "gt"), default="height",
                    help="classical method's metric scale: the camera height, or GT step lengths (labelled)")
     p.add_argument("--max-frames", type=FRAME_COUNT, help="stop after this many frames")
-    p.add_argument("--lengths", nargs="+", type=POSITIVE_FLOAT, default=list(DEVKIT_LENGTHS_M), metavar="M",
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, default=list(DEVKIT_LENGTHS_M), metavar="M",
                    help="evaluation sub-path lengths in metres (default the devkit's 100..800)")
     p.add_argument("--mcap", action="store_true", help="also write NAME.mcap (nav_msgs/Odometry, /tf, nav_msgs/Path); "
                                                         "always on for --bag")
@@ -406,19 +422,24 @@ def _add_batch(sub: argparse._SubParsersAction) -> None:
 def _cmd_export(args: argparse.Namespace) -> int:
     from flowvo.model.checkpoint import packaged_model_path, read_checkpoint, write_slim_checkpoint
     from flowvo.model.export import export_onnx, export_torchscript
+    from flowvo.model.export_format import export_file_format
     from flowvo.outputs import prepare_output_file
 
+    try:
+        file_format = export_file_format(args.out, args.format)
+    except ValueError as error:
+        raise FlowvoError(str(error)) from None
     model = args.model or packaged_model_path()
     read_checkpoint(model)  # a clear error for a missing or foreign file before anything is written
     out = Path(args.out)
     if out.resolve() == Path(model).resolve():
         raise FlowvoError("--out is the --model file itself; write the export elsewhere", out)
-    extra = [out.with_name(out.name + ".json")] if args.format != "slim" else []  # the description
+    extra = [out.with_name(out.name + ".json")] if file_format != "slim" else []  # the description
     for target in (out, *extra):
         prepare_output_file(target, args.force)
-    if args.format == "slim":
+    if file_format == "slim":
         written = [write_slim_checkpoint(model, args.out)]
-    elif args.format == "onnx":
+    elif file_format == "onnx":
         written = export_onnx(model, args.out, not args.no_symmetric, args.opset)
     else:
         written = export_torchscript(model, args.out, not args.no_symmetric)
@@ -428,19 +449,21 @@ def _cmd_export(args: argparse.Namespace) -> int:
 
 
 def _add_export(sub: argparse._SubParsersAction) -> None:
-    from flowvo.model.export_format import ONNX_OPSET
+    from flowvo.model.export_format import FILE_FORMATS, ONNX_OPSET, ONNX_OPSETS
 
     p = sub.add_parser("export", help="export a checkpoint: ONNX or TorchScript (+ JSON), or a slim float16 checkpoint")
     p.add_argument("--model", help="checkpoint (default: the packaged model)")
     p.add_argument("--out", required=True, help="output file, e.g. model.onnx, model.ts or default.pt")
-    p.add_argument("--format", choices=("onnx", "torchscript", "slim"), default="torchscript",
-                   help="onnx / torchscript: flow (B, 2K, h, w) in pixels of the network input -> motion (B, D) "
-                        "in m and rad, described in OUT.json (onnx needs: pip install 'flowvo[export]'); "
+    p.add_argument("--format", choices=FILE_FORMATS,
+                   help="default: onnx for an .onnx --out, else torchscript. onnx / torchscript: flow "
+                        "(B, 2K, h, w) in pixels of the network input -> motion (B, D) in m and rad, "
+                        "described in OUT.json (onnx needs: pip install 'flowvo[export]'); "
                         "slim: float16 weights + config + normalisation, runnable by flowvo run (not resumable)")
     p.add_argument("--no-symmetric", action="store_true",
                    help="onnx / torchscript: run only the direct pass, not its average with the mirrored one "
                         "(half the network cost; keeps the small constant heading offset the average cancels)")
-    p.add_argument("--opset", type=int, default=ONNX_OPSET, help="onnx: opset version")
+    p.add_argument("--opset", type=_bounded(int, *ONNX_OPSETS), default=ONNX_OPSET,
+                   help=f"onnx: opset version ({ONNX_OPSETS[0]}..{ONNX_OPSETS[1]})")
     _force_flag(p, "an existing --out file")
     p.set_defaults(func=_cmd_export)
 
@@ -448,7 +471,8 @@ def _add_export(sub: argparse._SubParsersAction) -> None:
 def _cmd_report(args: argparse.Namespace) -> int:
     from flowvo.report import write_report
 
-    print(f"report: {write_report(args.runs, args.out, args.force)}")
+    lengths_m = tuple(sorted(set(args.lengths))) if args.lengths else None
+    print(f"report: {write_report(args.runs, args.out, args.force, lengths_m)}")
     return 0
 
 
@@ -456,6 +480,8 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("report", help="one HTML page comparing run folders: tables, paths, error curves, timing")
     p.add_argument("runs", nargs="+", help="output folders of 'flowvo run'")
     p.add_argument("--out", required=True, help="report folder (index.html + PNGs)")
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, metavar="M",
+                   help="sub-path lengths in metres to score (default: each run's own --lengths, from run.json)")
     _force_flag(p, "an earlier report in --out")
     p.set_defaults(func=_cmd_report)
 
@@ -487,7 +513,10 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_bench(args: argparse.Namespace) -> int:
     from flowvo.bench import benchmark, format_bench_table, write_bench_json
+    from flowvo.outputs import prepare_output_file
 
+    if args.json:  # checked before the benchmark runs: never into the dataset, never over a file unasked
+        prepare_output_file(args.json, args.force, "--json", dataset=args.data)
     rows = benchmark(_run_options(args, ""), args.methods, args.frames, args.repeat)
     print(format_bench_table(rows))
     if args.json:
@@ -504,6 +533,7 @@ def _add_bench(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--frames", type=FRAME_COUNT, default=200, help="frames per run (at least 2)")
     p.add_argument("--repeat", type=POSITIVE_INT, default=3, help="runs per method; the table shows medians")
     p.add_argument("--json", metavar="PATH", help="also write the rows as JSON")
+    _force_flag(p, "an existing --json file")
     p.set_defaults(func=_cmd_bench)
 
 
@@ -597,7 +627,40 @@ def build_parser() -> argparse.ArgumentParser:
         add(sub)
     for command in sub.choices.values():
         command.add_argument("-q", "--quiet", dest="quiet_here", action="store_true", help="no progress bars")
+        command.formatter_class = _DefaultsFormatter
     return parser
+
+
+RESUMABLE_COMMANDS = ("synth", "flow", "train")  # their finished chunks, frames and epochs are reused by a rerun
+EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # the shell's 128 + SIGINT, 128 + SIGTERM
+
+
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that every ``finally`` and context manager runs (a render
+    pool is stopped, a lock released) before the one-line exit."""
+
+
+def _raise_terminated(signum: int, frame: object) -> None:
+    raise Terminated
+
+
+def _interrupted(error: BaseException) -> bool:
+    """True when ``error`` is, or was raised while handling, a Ctrl-C (an import cut short by Ctrl-C
+    raises a RuntimeError of its own)."""
+    seen: set[int] = set()
+    current: BaseException | None = error
+    while current is not None and id(current) not in seen:
+        if isinstance(current, KeyboardInterrupt):
+            return True
+        seen.add(id(current))
+        current = current.__cause__ or current.__context__
+    return False
+
+
+def _stopped_line(command: str, how: str) -> str:
+    kept = "resumable state kept" if command in RESUMABLE_COMMANDS \
+        else "nothing to resume: files are written whole, an earlier result is left as it was"
+    return f"flowvo {command}: {how} ({kept})"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -605,21 +668,34 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.quiet or args.quiet_here:
         set_progress_enabled(False)
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         return args.func(args)
     except FlowvoError as error:
         print(f"flowvo {args.command}: error: {error}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:  # every output is written atomically: finished chunks, frames, epochs remain
-        print(f"flowvo {args.command}: interrupted (resumable state kept)", file=sys.stderr)
-        return 130
+    except Terminated:
+        print(_stopped_line(args.command, "terminated"), file=sys.stderr)
+        return EXIT_TERMINATED
     except BrokenPipeError:  # the reader of stdout went away (`flowvo eval ... | head`): stop quietly
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
     except OSError as error:  # permission denied, read-only, disk full, a file where a folder should be
+        if _interrupted(error):
+            print(_stopped_line(args.command, "interrupted"), file=sys.stderr)
+            return EXIT_INTERRUPTED
         where = f"{error.filename}: " if error.filename else ""
         print(f"flowvo {args.command}: error: {where}{error.strerror or error}", file=sys.stderr)
         return 2
+    except BaseException as error:
+        if not _interrupted(error):
+            raise
+        print(_stopped_line(args.command, "interrupted"), file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        if threading.current_thread() is threading.main_thread():
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 if __name__ == "__main__":

@@ -83,6 +83,10 @@ def evaluate_files(gt_path: str | Path, pred_path: str | Path, alignment: str = 
     """Read two KITTI pose files and evaluate; the files are named in the metrics."""
     gt, pred = read_kitti_poses(gt_path), read_kitti_poses(pred_path)
     check_evaluable(gt, pred, gt_path, pred_path)
+    beyond = int((pred.frame_ids >= len(gt)).sum())
+    if beyond:
+        raise FlowvoError(f"has {beyond} pose(s) beyond the ground truth's {len(gt)} frames (frames "
+                          f"{len(gt)}..{pred.frame_ids[-1]}): not a prediction of this sequence?", pred_path)
     evaluation = evaluate(gt, pred, alignment, lengths_m)
     evaluation.metrics["gt_file"] = str(gt_path)
     evaluation.metrics["pred_file"] = str(pred_path)
@@ -116,6 +120,9 @@ def format_table(metrics: dict) -> str:
         ("RPE trans RMSE (1 frame)", f"{metrics['rpe_trans_rmse_m']:.4f} m"),
         ("RPE rot RMSE (1 frame)", f"{metrics['rpe_rot_rmse_deg']:.4f} deg"),
     ]
+    if metrics["frames_predicted"] < metrics["frames_gt"]:
+        rows.append(("frames", f"{metrics['frames_predicted']} of the ground truth's {metrics['frames_gt']} "
+                               "predicted (only those scored)"))
     width = max(len(name) for name, _ in rows)
     lines = [f"{name.ljust(width)}  {value}" for name, value in rows]
     lines.append("")

@@ -9,26 +9,38 @@ with ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from flowvo.atomic import write_json_atomic
-from flowvo.drive import RunOptions, make_step, open_drive
+from flowvo.drive import Drive, RunOptions, make_step, open_drive
 from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
-from flowvo.outputs import prepare_output_dir, run_outputs
+from flowvo.methods.base import OdometryStep
+from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs
 from flowvo.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from flowvo.stream import StreamResult
 
 
 def run(options: RunOptions) -> dict:
-    """Run odometry and write every output; returns the run summary (also in run.json)."""
-    from flowvo.stream import stream_odometry, timing_report
+    """Run odometry and write every output; returns the run summary (also in run.json).
+
+    Every input is checked (ground truth included) before the output folder is touched; the folder is
+    locked while the run writes it, and an earlier result (``force``) is replaced only by the finished new
+    one, whole (see :func:`flowvo.outputs.staged_outputs`).
+    """
+    from flowvo.stream import stream_odometry
 
     drive = open_drive(options)
     source = drive.source
+    where = options.data or options.video or options.bag
     if source.frame_count is not None and source.frame_count < 2:
-        raise FlowvoError(f"has {source.frame_count} frame(s); odometry needs at least 2", source.name)
+        raise FlowvoError(f"has {source.frame_count} frame(s); odometry needs at least 2", where)
+    ground_truth = source.ground_truth  # read and checked now, not after the whole drive streamed
     step = make_step(options, drive)
     write_mcap = options.mcap or bool(options.bag)
     if write_mcap:
@@ -38,9 +50,25 @@ def run(options: RunOptions) -> dict:
         require_ros_extra("writing MCAP odometry")
         check_names(options.frame_id, options.child_frame_id)
     produces = run_outputs(source.name) + ([f"{source.name}.mcap"] if write_mcap else [])
-    out = prepare_output_dir(options.out, produces, options.force, dataset=options.data)
-    result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name,
-                             overlap=options.overlap_stages)
+    with claim_output_dir(options.out, produces, options.force, dataset=options.data) as out:
+        result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name,
+                                 overlap=options.overlap_stages)
+        if result.frames < 2:  # a still image OpenCV opens as a one-frame "video"
+            raise FlowvoError(f"gave {result.frames} frame(s); odometry needs at least 2", where)
+        if write_mcap:
+            from flowvo.ros.odometry_mcap import check_stamps
+
+            check_stamps(result.timestamps_s, where)
+        with staged_outputs(out, produces) as staging:
+            return _write_results(options, drive, step, result, ground_truth, staging)
+
+
+def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result: StreamResult,
+                   ground_truth: Trajectory | None, out: Path) -> dict:
+    """Write poses, timing, MCAP, evaluation and run.json into ``out``; returns the summary."""
+    from flowvo.stream import timing_report
+
+    source = drive.source
     trajectory = Trajectory.from_poses(result.T_world_cam)
     write_kitti_poses(out / f"{source.name}.txt", trajectory)
     write_tum_trajectory(out / f"{source.name}.tum", trajectory, result.timestamps_s)
@@ -57,17 +85,17 @@ def run(options: RunOptions) -> dict:
         "poses": f"{source.name}.txt",
         "camera": drive.camera.record(),
         "frames_per_second": timing["frames_per_second"],
+        "lengths_m": list(options.lengths_m),
     }
-    if write_mcap:
+    if options.mcap or options.bag:
         from flowvo.ros.odometry_mcap import write_odometry_mcap
 
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
                             frame_id=options.frame_id, child_frame_id=options.child_frame_id)
         summary["mcap"] = f"{source.name}.mcap"
     summary.update(step.summary())
-    if source.ground_truth is not None:
-        gt = source.ground_truth.subset(np.arange(result.frames)) if result.frames < len(source.ground_truth) \
-            else source.ground_truth
+    if ground_truth is not None:
+        gt = ground_truth.subset(np.arange(result.frames)) if result.frames < len(ground_truth) else ground_truth
         evaluation = evaluate(gt, trajectory, lengths_m=options.lengths_m)
         save_evaluation(evaluation, out / f"eval_{source.name}")
         summary["metrics"] = {k: evaluation.metrics[k] for k in ("t_err_percent", "r_err_deg_per_m", "ate_rmse_m")}

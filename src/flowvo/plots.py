@@ -20,13 +20,16 @@ def _save(figure: plt.Figure, path: Path) -> Path:
     return path
 
 
-def plot_paths(paths: dict[str, np.ndarray], gt_positions: np.ndarray, title: str, path: Path) -> Path:
-    """Bird's-eye x-z plot (metres) of ground truth and predicted camera centres, start marked."""
+def plot_paths(paths: dict[str, np.ndarray], gt_positions: np.ndarray | None, title: str, path: Path) -> Path:
+    """Bird's-eye x-z plot (metres) of ground truth (when there is one) and predicted camera centres,
+    start marked."""
     figure, axis = plt.subplots(figsize=(6.5, 6.5))
-    axis.plot(gt_positions[:, 0], gt_positions[:, 2], "k-", lw=2, label="ground truth")
+    if gt_positions is not None:
+        axis.plot(gt_positions[:, 0], gt_positions[:, 2], "k-", lw=2, label="ground truth")
     for name, positions in paths.items():
         axis.plot(positions[:, 0], positions[:, 2], lw=1.5, label=name)
-    axis.plot(gt_positions[0, 0], gt_positions[0, 2], "ks", ms=9, label="start")
+    start = gt_positions if gt_positions is not None else next(iter(paths.values()))
+    axis.plot(start[0, 0], start[0, 2], "ks", ms=9, label="start")
     axis.set_xlabel("x [m]")
     axis.set_ylabel("z [m]")
     axis.set_aspect("equal", adjustable="datalim")

@@ -13,16 +13,34 @@ import numpy as np
 
 from flowvo.two_view import EssentialMotion, triangulate
 
+ROAD_ROWS = (0.10, 0.35)  # the road grid's rows below the principal point, in frame heights
+ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
+GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
 
-def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.10, 0.35),
-              half_width: float = 0.2, step_px: int = 4) -> np.ndarray:
+
+def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
+    """Why the road grid does not fit in a frame of ``image_hw`` (pixels) with intrinsics ``K``, or None
+    when it does: its rows ``cy + ROAD_ROWS * H`` and columns ``cx +- ROAD_HALF_WIDTH * W`` must lie
+    inside the frame (a principal point near the border leaves no road to measure)."""
+    h, w = image_hw
+    cx, cy = float(K[0, 2]), float(K[1, 2])
+    max_cy = h - GRID_MARGIN_PX - ROAD_ROWS[1] * h
+    cx_range = (ROAD_HALF_WIDTH * w + GRID_MARGIN_PX, w - GRID_MARGIN_PX - ROAD_HALF_WIDTH * w)
+    if cy <= max_cy and cx_range[0] <= cx <= cx_range[1]:
+        return None
+    return (f"principal point ({cx:g}, {cy:g}) leaves no room for the road crop on {w}x{h} frames: it needs cx in "
+            f"[{cx_range[0]:.0f}, {cx_range[1]:.0f}] and cy <= {max_cy:.0f} px")
+
+
+def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = ROAD_ROWS,
+              half_width: float = ROAD_HALF_WIDTH, step_px: int = GRID_MARGIN_PX) -> np.ndarray:
     """Where to read the road's flow: a regular grid (R, 2) float32 of rows ``cy + rows * H`` within
     ``half_width * W`` of the principal point column, where the road ahead usually is (rows far below
     fail: the road there moves and stretches too much between frames)."""
     h, w = image_hw
     cx, cy = K[0, 2], K[1, 2]
-    top, bottom = int(cy + rows[0] * h), min(h - 4, int(cy + rows[1] * h))
-    left, right = max(4, int(cx - half_width * w)), min(w - 4, int(cx + half_width * w))
+    top, bottom = int(cy + rows[0] * h), min(h - GRID_MARGIN_PX, int(cy + rows[1] * h))
+    left, right = max(GRID_MARGIN_PX, int(cx - half_width * w)), min(w - GRID_MARGIN_PX, int(cx + half_width * w))
     ys, xs = np.mgrid[top:bottom:step_px, left:right:step_px]
     return np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float32)
 

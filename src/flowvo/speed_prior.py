@@ -12,6 +12,8 @@ from collections import deque
 
 import numpy as np
 
+SPEED_HORIZON_S = 1.0  # the window's nine frames span 0.9 s at KITTI's 10 Hz; a longer gap ends the history
+
 
 def robust_line_value(times_s: np.ndarray, values: np.ndarray, at_s: float, iterations: int = 6) -> float:
     """Value at ``at_s`` of a Huber line fit through (times_s, values)."""
@@ -31,17 +33,29 @@ class SpeedPrior:
 
     ``update(time_s, speed_mps)`` takes a measurement (None when the frame gave none) and returns the
     filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed).
-    Measurements above ``max_speed_mps`` are rejected as implausible.
+    Measurements above ``max_speed_mps`` are rejected as implausible. A gap between frames longer than
+    ``horizon_s`` (a paused recording, dropped frames) restarts the prior: the speed before it says nothing
+    of the motion over it, so it is never extrapolated across (an hour's gap at 11.5 m/s made one 41 km
+    step); the step over the gap is its own measurement, or none.
     """
 
-    def __init__(self, window: int = 9, min_points: int = 4, max_speed_mps: float = 45.0) -> None:
+    def __init__(self, window: int = 9, min_points: int = 4, max_speed_mps: float = 45.0,
+                 horizon_s: float = SPEED_HORIZON_S) -> None:
         self.max_speed_mps = max_speed_mps
         self.min_points = min_points
+        self.horizon_s = horizon_s
         self._history: deque[tuple[float, float]] = deque(maxlen=window)
+        self._last_time_s: float | None = None
 
     def update(self, time_s: float, speed_mps: float | None) -> float | None:
         """The filtered speed (m/s) at ``time_s``, or None while there is no measurement at all."""
-        if speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_mps:
+        plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_mps
+        gap = self._last_time_s is not None and time_s - self._last_time_s > self.horizon_s
+        self._last_time_s = time_s
+        if gap:  # a mean speed over the gap is no car's speed: used for this step, kept out of the history
+            self._history.clear()
+            return speed_mps if plausible else None
+        if plausible:
             self._history.append((time_s, speed_mps))
         if not self._history:
             return None
@@ -54,3 +68,4 @@ class SpeedPrior:
         """A standstill at ``time_s``: earlier speeds no longer describe the motion."""
         self._history.clear()
         self._history.append((time_s, 0.0))
+        self._last_time_s = time_s

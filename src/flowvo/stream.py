@@ -70,15 +70,32 @@ class _Stage:
         self._put(_END)
 
     def __iter__(self) -> Iterator:
-        while (item := self.queue.get()) is not _END:
+        """The items in order; ends at the end of the stream or once the stage is cancelled (a consumer
+        thread blocked on an idle queue would otherwise never see the cancellation)."""
+        while not self.cancelled.is_set():
+            try:
+                item = self.queue.get(timeout=0.1)
+            except queue.Empty:
+                continue
+            if item is _END:
+                return
             if isinstance(item, BaseException):
                 raise item
             yield item
 
     def cancel(self) -> None:
-        """Stop producing and wait for the thread (so no native call runs on at interpreter exit)."""
+        """Stop producing (without waiting; see :func:`_stop`)."""
         self.cancelled.set()
-        self.thread.join(timeout=10.0)
+
+
+def _stop(*stages: _Stage) -> None:
+    """Cancel every stage first, then wait for each thread, so that no OpenCV or torch call is still
+    running in a thread when the interpreter exits (a C++ runtime then aborts the process: exit 134,
+    "terminate called without an active exception", seen after Ctrl-C)."""
+    for stage in stages:
+        stage.cancel()
+    for stage in stages:
+        stage.thread.join()
 
 
 def _read(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep,
@@ -157,8 +174,7 @@ def _chain(motions: Iterable[tuple[float, np.ndarray | None, dict[str, float]]],
                 seconds[stage] += value
             times.append(time_s)
     finally:
-        for stage in stages:
-            stage.cancel()
+        _stop(*stages)
     if not poses:
         raise FlowvoError("the drive has no frames")
     return StreamResult(np.stack(poses), np.asarray(times), seconds, time.perf_counter() - wall_start)

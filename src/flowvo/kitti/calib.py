@@ -14,6 +14,7 @@ import numpy as np
 
 from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height
 from flowvo.errors import FlowvoError
+from flowvo.text_numbers import parse_float
 
 REQUIRED_KEYS = ("P0",)
 CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m")
@@ -59,16 +60,29 @@ def read_calibration(path: str | Path) -> Calibration:
                 extras[name.strip()] = (line_number, rest.strip())
                 continue
             try:
-                values = [float(v) for v in rest.split()]
+                values = [parse_float(v) for v in rest.split()]
             except ValueError:
                 raise FlowvoError(f"{name.strip()}: expected 12 numbers, found text", path, line_number) from None
             if len(values) != 12:
                 raise FlowvoError(f"{name.strip()}: expected 12 numbers, found {len(values)}", path, line_number)
             matrices[name.strip()] = np.reshape(values, (3, 4))
+            if name.strip() == "P0":
+                _check_projection(matrices["P0"], path, line_number)
     missing = [key for key in REQUIRED_KEYS if key not in matrices]
     if missing:
         raise FlowvoError(f"missing {', '.join(missing)}", path)
     return Calibration(matrices, *_camera_lines(extras, path))
+
+
+def _check_projection(P: np.ndarray, path: Path, line_number: int) -> None:
+    """Refuse a P0 that images nothing: non-finite numbers, or focal lengths that are not positive (an
+    all-zero matrix is a placeholder, not a camera). Ranges against the frames are checked later, with
+    every other source's camera (:func:`flowvo.camera_options.check_intrinsics`)."""
+    if not np.all(np.isfinite(P)):
+        raise FlowvoError("P0: every number must be finite (found NaN or infinity)", path, line_number)
+    if not (P[0, 0] > 0 and P[1, 1] > 0):
+        raise FlowvoError(f"P0: focal lengths fx={P[0, 0]:g}, fy={P[1, 1]:g} px must be positive (entries 1 and 6 "
+                          "of the 12)", path, line_number)
 
 
 def _camera_lines(extras: dict[str, tuple[int, str]], path: Path) -> tuple[LensDistortion, float | None]:
@@ -78,7 +92,7 @@ def _camera_lines(extras: dict[str, tuple[int, str]], path: Path) -> tuple[LensD
         if key in extras:
             line_number, text = extras[key]
             try:
-                numbers[key] = [float(v) for v in text.split()]
+                numbers[key] = [parse_float(v) for v in text.split()]
             except ValueError:
                 raise FlowvoError(f"{key}: expected numbers, found text", path, line_number) from None
     distortion = NO_DISTORTION

@@ -15,6 +15,7 @@ from scipy.spatial.transform import Rotation
 
 from flowvo.atomic import atomic_open
 from flowvo.errors import FlowvoError
+from flowvo.text_numbers import parse_float
 from flowvo.trajectory import Trajectory
 
 _ORTHONORMAL_TOLERANCE = 1e-2
@@ -25,9 +26,7 @@ MAX_TRANSLATION_M = 1e8  # beyond UTM and Earth-centred coordinates; squares sta
 def _numbers(fields: list[str], path: Path, line_number: int) -> list[float]:
     """The 12 or 13 numbers of one line; raises naming the line."""
     try:
-        if any("_" in field for field in fields):  # Python's float() would read 1_0 as 10
-            raise ValueError
-        values = [float(field) for field in fields]
+        values = [parse_float(field) for field in fields]
     except ValueError:
         raise FlowvoError("expected 12 numbers (or frame index + 12), found text", path, line_number) from None
     if len(values) not in (12, 13):

@@ -18,7 +18,8 @@ import numpy as np
 from flowvo.errors import FlowvoError
 from flowvo.kitti.calib import Calibration, read_calibration
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.outputs import validate_name
+from flowvo.outputs import check_path_text, validate_name
+from flowvo.text_numbers import parse_float
 from flowvo.trajectory import Trajectory
 
 _FRAME_NAME = re.compile(r"^(\d{6})\.png$")
@@ -50,7 +51,7 @@ class KittiSequence:
     """
 
     def __init__(self, root: str | Path, sequence: str, camera: str = "image_0") -> None:
-        self.root = Path(root)
+        self.root = check_path_text(root, "dataset root")  # OpenCV crashes the process on non-UTF-8 names
         self.sequence = sequence_name(sequence)
         if camera not in CAMERAS:
             raise FlowvoError(f"unknown camera {camera!r}; expected one of {', '.join(CAMERAS)}")
@@ -101,7 +102,7 @@ class KittiSequence:
                 if not line.strip():
                     continue
                 try:
-                    values.append(float(line))
+                    values.append(parse_float(line.strip()))
                 except ValueError:
                     raise FlowvoError("expected one timestamp in seconds per line", path, line_number) from None
                 if not math.isfinite(values[-1]):

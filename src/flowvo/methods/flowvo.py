@@ -23,7 +23,14 @@ from flowvo.flow.registry import create_estimator
 from flowvo.geometry import invert_se3
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
 from flowvo.methods.cnn import CnnStep
-from flowvo.road_scale import NetworkFallbackPolicy, road_crop, road_grid, road_homography, trusted_road_plane
+from flowvo.road_scale import (
+    NetworkFallbackPolicy,
+    road_crop,
+    road_grid,
+    road_homography,
+    road_room,
+    trusted_road_plane,
+)
 from flowvo.speed_prior import SpeedPrior
 from flowvo.two_view import essential_motion, follow_flow, se3_next_prev, textured_points, track_points
 
@@ -34,6 +41,8 @@ STILL_FLOW_PX = 0.5  # at the reference width: below this median motion of road 
 PREDICT_ROAD_ABOVE_PX = 12.0  # at the reference width: larger road motion is predicted from the last step before
 # DIS measures the rest (real clips at 5 Hz: 01 10.5 -> 4.0 %, 07 4.8 -> 3.6 %; at 10 Hz below this, DIS alone
 # measured better on clip 01: 2.4 % when every step was predicted, 1.3 % with this threshold)
+MIN_FRAME_WIDTH_PX = 128  # measured on 20 frames of clip 06 (23.6 m) resized: 128x90 px gave 24.0 m, 96x90
+# 29.7 m, 64x90 a standstill (too few road and tracked points to fit anything)
 ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (LK tracks are sub-pixel)
 
 
@@ -81,12 +90,20 @@ class FlowGeometryStep(WorkingFrames):
         self.fallback_policy = NetworkFallbackPolicy()
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = self.camera.camera_height_m
+        if image_size_hw[1] < MIN_FRAME_WIDTH_PX:
+            raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too narrow for the default "
+                              f"method: it needs at least {MIN_FRAME_WIDTH_PX} px (narrower ones give a wrong or "
+                              "no trajectory); use larger frames or --method classical")
+        no_room = road_room(image_size_hw, camera.intrinsics.K)
+        if no_room:
+            raise FlowvoError(f"{no_room} (check the intrinsics; --method classical needs no road)")
         self.crop = road_crop(self.working_hw, self.K)
         crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
         if min(crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
                               f"method: its road crop is {crop_hw[1]}x{crop_hw[0]} px, the flow needs at least "
-                              f"{MIN_FLOW_SIDE_PX} px a side (frames at least 90 px high and 64 px wide work)")
+                              f"{MIN_FLOW_SIDE_PX} px a side (frames at least 90 px high and "
+                              f"{MIN_FRAME_WIDTH_PX} px wide work)")
         self.road_px = road_grid(self.working_hw, self.K)
         self.road_px_undistorted = self._undistort(self.road_px)
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)

@@ -35,6 +35,7 @@ def export_torchscript(checkpoint: str | Path, out: str | Path, symmetric: bool 
     """Write ``out`` (traced TorchScript of :class:`DeployableOdometry`, any batch size) and ``out`` +
     ``.json`` (its description); returns both paths."""
     model, description = load_for_export(checkpoint, symmetric)
+    description["file_format"] = "torchscript"
     with torch.no_grad():
         traced = torch.jit.trace(model, _example_input(model))
     out = Path(out)
@@ -49,6 +50,7 @@ def export_onnx(checkpoint: str | Path, out: str | Path, symmetric: bool = True,
     its metadata under ``flowvo``) and ``out`` + ``.json``; returns both paths."""
     onnx = import_optional("onnx", "ONNX export", "export")
     model, description = load_for_export(checkpoint, symmetric)
+    description["file_format"] = "onnx"
     buffer = io.BytesIO()
     with torch.no_grad():
         torch.onnx.export(model, (_example_input(model),), buffer, dynamo=False, opset_version=opset,

@@ -14,6 +14,21 @@ INPUT_NAME = "flow_px"
 OUTPUT_NAME = "motion"
 METADATA_KEY = "flowvo"  # ONNX metadata_props key holding the same JSON as the file beside the model
 ONNX_OPSET = 17  # supported by torch 2.13's TorchScript-based exporter and ONNX Runtime >= 1.18
+ONNX_OPSETS = (11, 20)  # the flip of the mirrored pass needs opset 10+; ONNX Runtime 1.18 reads up to 21
+FILE_FORMATS = ("onnx", "torchscript", "slim")  # what ``flowvo export --format`` writes
+
+
+def export_file_format(out: str, given: str | None) -> str:
+    """The format to write ``out`` in: ``given``, else ``onnx`` for a ``.onnx`` name and TorchScript
+    otherwise. Raises ValueError (the message) when ``given`` contradicts an ``.onnx`` name either way,
+    since a runtime picks its loader by the extension."""
+    is_onnx_name = out.lower().endswith(".onnx")
+    if given is None:
+        return "onnx" if is_onnx_name else "torchscript"
+    if is_onnx_name != (given == "onnx"):
+        raise ValueError(f"--format {given} does not match the file name {out!r}: ONNX files end in .onnx, "
+                         "other formats must not (leave out --format to choose by the extension)")
+    return given
 
 
 def describe(model: DeployableOdometry, training: dict) -> dict:

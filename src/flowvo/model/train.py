@@ -32,7 +32,7 @@ from flowvo.model.device import check_device
 from flowvo.model.inference import chain_motions, predict_targets
 from flowvo.model.network import OdometryNet
 from flowvo.model.preprocess import Normalization
-from flowvo.outputs import prepare_output_dir
+from flowvo.outputs import prepare_output_dir, remove_outputs
 from flowvo.progress import progress
 from flowvo.trajectory import Trajectory
 
@@ -122,6 +122,8 @@ def train(config: TrainConfig, resume: bool = False, stop_after_epochs: int | No
     np.random.seed(config.seed)
     state = None
     prepare_output_dir(out, [] if resume or rank else TRAIN_OUTPUTS, force, dataset=config.data)
+    if force and not rank:  # a fresh run must not resume from (or keep) the replaced run's checkpoints
+        remove_outputs(out, TRAIN_OUTPUTS)
     if resume:
         if not (out / "last.pt").is_file():
             raise FlowvoError("nothing to resume: no last.pt", out)

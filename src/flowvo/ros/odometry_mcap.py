@@ -78,6 +78,22 @@ def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam:
     return target
 
 
+MAX_STAMP_S = 2**31 - 1  # ROS 2 builtin_interfaces/Time holds seconds in an int32 (to January 2038)
+
+
+def check_stamps(timestamps_s: np.ndarray, where: str | Path) -> None:
+    """Refuse stamps an MCAP cannot carry: not finite, negative, past ``MAX_STAMP_S`` or not increasing
+    (a :class:`FlowvoError` naming ``where``, the drive; called before any output is written)."""
+    stamps = np.asarray(timestamps_s, dtype=np.float64)
+    bad = ~np.isfinite(stamps) | (stamps < 0) | (stamps > MAX_STAMP_S)
+    if bad.any():
+        index = int(np.argmax(bad))
+        raise FlowvoError(f"frame {index} is stamped {stamps[index]:g} s; MCAP odometry needs stamps in "
+                          f"[0, {MAX_STAMP_S}] s (ROS time): fix the timestamps or leave out --mcap", where)
+    if np.any(np.diff(stamps) <= 0):
+        raise FlowvoError("timestamps must strictly increase for MCAP odometry", where)
+
+
 def _stamps_ns(timestamps_s: np.ndarray, T_world_cam: np.ndarray) -> list[int]:
     """Stamps in integer nanoseconds after checking shapes and order."""
     stamps = np.asarray(timestamps_s, dtype=np.float64)
@@ -88,6 +104,7 @@ def _stamps_ns(timestamps_s: np.ndarray, T_world_cam: np.ndarray) -> list[int]:
         raise ValueError(f"timestamps_s must have one stamp per pose, got {stamps.shape} for {len(poses)} poses")
     if not np.all(np.isfinite(stamps)) or stamps[0] < 0 or np.any(np.diff(stamps) <= 0):
         raise ValueError("timestamps_s must be finite, non-negative and strictly increasing")
+    check_stamps(stamps, "timestamps_s")
     return [int(ns) for ns in np.round(stamps * 1e9).astype(np.int64)]
 
 

@@ -30,6 +30,7 @@ import numpy as np
 
 from flowvo.camera import Camera
 from flowvo.errors import FlowvoError
+from flowvo.outputs import check_path_text
 from flowvo.sources.base import safe_source_name
 from flowvo.trajectory import Trajectory
 
@@ -92,7 +93,7 @@ def open_video_source(path: str | Path) -> VideoSource:
     Raises a one-line FlowvoError naming the file when it is missing, OpenCV cannot open it or its first
     frame does not decode.
     """
-    path = Path(path)
+    path = check_path_text(path, "--video")  # OpenCV crashes the process on names that are not UTF-8
     if not path.is_file():
         raise FlowvoError("video file not found", path)
     capture = _open_capture(path)

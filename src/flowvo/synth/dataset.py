@@ -9,6 +9,7 @@ from pathlib import Path
 from flowvo.errors import FlowvoError
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import sequence_name
+from flowvo.outputs import check_path_text
 from flowvo.synth.camera_path import PathConfig, generate_path
 from flowvo.synth.frame_rate import frames_spanning, path_frames_for
 from flowvo.synth.sequence_writer import SynthSpec, intrinsics, spec_digest, write_sequence
@@ -83,28 +84,41 @@ def _clear_sequence(root: Path, name: str) -> None:
     (root / "poses" / f"{name}.txt").unlink(missing_ok=True)
 
 
+DATASET_ENTRIES = ("sequences", "poses")  # what a KITTI-layout root holds; other sequences there are kept
+
+
+def _present(root: Path, name: str) -> bool:
+    """True when ``root`` holds anything of sequence ``name`` (its folder or its pose file)."""
+    return (root / "sequences" / name).exists() or (root / "poses" / f"{name}.txt").exists()
+
+
 def check_target(root: Path, specs: dict[str, SynthSpec], force: bool) -> list[str]:
     """Refuse to mix a new rendering with what ``root`` holds; returns the sequences to clear first.
 
-    Without ``force``: ``root`` must be absent or empty, or be resuming this same command (every
-    sequence's synthetic.json records the same spec digest; frames on disk are then reused). With
-    ``force``: every sequence whose recorded spec differs is replaced whole; other content is kept.
+    ``root`` may be absent, empty, or a dataset (only ``sequences/`` and ``poses/``) holding other
+    sequences. A named sequence already there is resumed when its synthetic.json records this same spec
+    (frames on disk are reused); rendered differently, it is replaced whole with ``force`` only, and never
+    when flowvo synth did not write it (its own frames or pose file are the user's). Other content of a
+    non-empty root needs ``force`` (and is kept).
     """
     if root.exists() and not root.is_dir():
         raise FlowvoError("--out is a file, expected a folder", root)
-    resuming = {name for name, spec in specs.items() if _existing_digest(root, name) == spec_digest(spec)}
-    stale = [name for name in specs if name not in resuming]
-    occupied = root.is_dir() and any(root.iterdir())
-    if occupied and stale and not force:
-        raise FlowvoError("is not empty; synth refuses to mix a new rendering with existing files (old frames "
-                          "beside new poses): use an empty folder, or --force to replace sequence(s) "
-                          f"{' '.join(stale)} (other content is kept)", root)
+    others = sorted(entry.name for entry in root.iterdir() if entry.name not in DATASET_ENTRIES) \
+        if root.is_dir() else []
+    if others and not force:
+        raise FlowvoError(f"is not empty and not a dataset root (holds {', '.join(others[:3])}); use an empty "
+                          "folder or a dataset root, or --force to write beside that content (it is kept)", root)
+    stale = [name for name, spec in specs.items()
+             if _present(root, name) and _existing_digest(root, name) != spec_digest(spec)]
     for name in stale:
-        directory = root / "sequences" / name
-        if directory.is_dir() and not (directory / "synthetic.json").is_file() and any(directory.iterdir()):
-            raise FlowvoError("holds a sequence not written by flowvo synth (no synthetic.json); not replacing it "
-                              "even with --force: choose another --out or sequence name", directory)
-    return stale if occupied else []
+        if not (root / "sequences" / name / "synthetic.json").is_file():
+            raise FlowvoError(f"holds a sequence {name} not written by flowvo synth (no synthetic.json); not "
+                              "replacing it even with --force: choose another --out or sequence name", root)
+    if stale and not force:
+        raise FlowvoError(f"holds sequence(s) {' '.join(stale)} rendered differently before; synth refuses to mix "
+                          "old frames with new poses: use another folder or sequence name, or --force to replace "
+                          "them whole (other sequences are kept)", root)
+    return stale
 
 
 def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | None = None,
@@ -117,7 +131,7 @@ def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | 
     Every plan is made (and every input read) before anything is written; see :func:`check_target` for
     when an existing ``root`` is refused, resumed or (``force``) partly replaced.
     """
-    root = Path(root)
+    root = check_path_text(root, "--out")  # OpenCV crashes the process writing frames under non-UTF-8 names
     canonical = [sequence_name(name) for name in names]
     repeated = sorted({name for name in canonical if canonical.count(name) > 1})
     if repeated:
