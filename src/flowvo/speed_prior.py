@@ -12,6 +12,8 @@ from collections import deque
 
 import numpy as np
 
+SPEED_WINDOW_S = 0.9  # the robust line's span: nine frames at KITTI's 10 Hz, where it was tuned
+MIN_WINDOW = 9  # measurements in the line at least (lower frame rates span more time, as tuned on 5-10 Hz)
 SPEED_HORIZON_S = 1.0  # the window's nine frames span 0.9 s at KITTI's 10 Hz; a longer gap ends the history
 
 
@@ -37,20 +39,28 @@ class SpeedPrior:
     ``horizon_s`` (a paused recording, dropped frames) restarts the prior: the speed before it says nothing
     of the motion over it, so it is never extrapolated across (an hour's gap at 11.5 m/s made one 41 km
     step); the step over the gap is its own measurement, or none.
+
+    The line runs through the last ``MIN_WINDOW`` measurements, or through as many as span ``window_s``
+    seconds at the stream's frame rate when that is more (30 frames/s: 27), so a faster camera averages
+    over the same time, not over fewer seconds.
     """
 
-    def __init__(self, window: int = 9, min_points: int = 4, max_speed_mps: float = 45.0,
+    def __init__(self, window_s: float = SPEED_WINDOW_S, min_points: int = 4, max_speed_mps: float = 45.0,
                  horizon_s: float = SPEED_HORIZON_S) -> None:
         self.max_speed_mps = max_speed_mps
         self.min_points = min_points
         self.horizon_s = horizon_s
-        self._history: deque[tuple[float, float]] = deque(maxlen=window)
+        self.window_s = window_s
+        self._history: deque[tuple[float, float]] = deque(maxlen=MIN_WINDOW)
         self._last_time_s: float | None = None
+        self._intervals_s: deque[float] = deque(maxlen=15)
 
     def update(self, time_s: float, speed_mps: float | None) -> float | None:
         """The filtered speed (m/s) at ``time_s``, or None while there is no measurement at all."""
         plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_mps
         gap = self._last_time_s is not None and time_s - self._last_time_s > self.horizon_s
+        if self._last_time_s is not None and not gap:
+            self._fit_window(time_s - self._last_time_s)
         self._last_time_s = time_s
         if gap:  # a mean speed over the gap is no car's speed: used for this step, kept out of the history
             self._history.clear()
@@ -63,6 +73,13 @@ class SpeedPrior:
         if len(speeds) < self.min_points:
             return float(np.median(speeds))
         return max(0.0, robust_line_value(times, speeds, time_s))
+
+    def _fit_window(self, interval_s: float) -> None:
+        """Size the history to span ``window_s`` at the recent frame interval (never below MIN_WINDOW)."""
+        self._intervals_s.append(interval_s)
+        size = max(MIN_WINDOW, int(round(self.window_s / float(np.median(self._intervals_s)))))
+        if size != self._history.maxlen:
+            self._history = deque(self._history, maxlen=size)
 
     def stop(self, time_s: float) -> None:
         """A standstill at ``time_s``: earlier speeds no longer describe the motion."""

@@ -43,6 +43,10 @@ PREDICT_ROAD_ABOVE_PX = 12.0  # at the reference width: larger road motion is pr
 # measured better on clip 01: 2.4 % when every step was predicted, 1.3 % with this threshold)
 MIN_FRAME_WIDTH_PX = 128  # measured on 20 frames of clip 06 (23.6 m) resized: 128x90 px gave 24.0 m, 96x90
 # 29.7 m, 64x90 a standstill (too few road and tracked points to fit anything)
+KEY_ROAD_PX = 6.0  # at the reference width: a step whose road moved less keeps its road key frame, so the road
+# scale is measured over a longer baseline (half of PREDICT_ROAD_ABOVE_PX: two such steps stay within DIS's reach;
+# synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
+MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
 ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (LK tracks are sub-pixel)
 
 
@@ -62,13 +66,18 @@ class GeometryFrame:
 class GeometryFlow:
     """What the default method measures between two working frames, in undistorted pixels: ``motion_prev``
     -> ``motion_next`` (M, 2) tracked textured points for the rotation and translation direction, and
-    ``road_prev`` -> ``road_next`` (R, 2) road-band points moved by the dense flow field of the road crop."""
+    ``road_prev`` -> ``road_next`` (R, 2) road-band points moved by the dense flow field of the road crop
+    from the road key frame (the previous frame, or an earlier one while the road moves little) to the
+    current one, with ``key_prev`` -> ``key_next`` the key frame's textured points tracked into the current
+    frame (None when the key frame is the previous frame)."""
 
     motion_prev: np.ndarray
     motion_next: np.ndarray
     road_prev: np.ndarray
     road_next: np.ndarray
-    current: np.ndarray  # the current working frame, for the network's fallback distance
+    current: GeometryFrame
+    key_prev: np.ndarray | None = None
+    key_next: np.ndarray | None = None
 
 
 class FlowGeometryStep(WorkingFrames):
@@ -114,6 +123,9 @@ class FlowGeometryStep(WorkingFrames):
         self._previous: GeometryFrame | None = None
         self.predict_above_px = PREDICT_ROAD_ABOVE_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self._road_prediction: np.ndarray | None = None  # road homography previous -> current, predicted
+        self.key_road_px = KEY_ROAD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
+        self._road_key: GeometryFrame | None = None  # where the next step's road flow starts (None: previous)
+        self._key_time_s, self._key_steps = 0.0, 0
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
@@ -133,9 +145,16 @@ class FlowGeometryStep(WorkingFrames):
         return self._previous
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
-        """Point tracks over the whole frame (from ``prepare``) and the dense flow of the road crop."""
-        return GeometryFlow(self._undistort(current.tracked_prev), self._undistort(current.tracked_next),
-                            self.road_px_undistorted, self._road_flow(previous.image, current.image), current.image)
+        """Point tracks over the whole frame (from ``prepare``) and the dense flow of the road crop from the
+        road key frame (see :class:`GeometryFlow`)."""
+        motion = self._undistort(current.tracked_prev), self._undistort(current.tracked_next)
+        key = self._road_key
+        if key is None or key is previous:
+            return GeometryFlow(*motion, self.road_px_undistorted, self._road_flow(previous.image, current.image),
+                                current)
+        key_prev, key_next = track_points(key.image, current.image, key.textured_px)
+        return GeometryFlow(*motion, self.road_px_undistorted, self._road_flow(key.image, current.image), current,
+                            self._undistort(key_prev), self._undistort(key_next))
 
     def _road_flow(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
         """Where the road grid points of ``previous`` are in ``current`` (R, 2), undistorted working pixels.
@@ -170,21 +189,29 @@ class FlowGeometryStep(WorkingFrames):
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        road_moved_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
-        if np.median(road_moved_px) < self.still_flow_px and (not len(moved_px) or
-                                                              np.median(moved_px) < self.still_flow_px):
+        road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1)))
+        key_is_previous = flow.key_prev is None
+        key_frame = previous if key_is_previous else self._road_key
+        key_time_s = times_s[0] if key_is_previous else self._key_time_s
+        key_steps = 1 if key_is_previous else self._key_steps + 1
+        self._road_key, self._road_prediction = None, None  # by default the next step starts from this frame
+        if road_moved_px / key_steps < self.still_flow_px and (not len(moved_px) or
+                                                               np.median(moved_px) < self.still_flow_px):
             self.speed.stop(time_s)  # the road and the scene stand still (distant points alone can mislead)
-            self._road_prediction = None
             self.last_motion = np.eye(4)
             return self.last_motion
         fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)
         if fit is None:  # degenerate: keep the last motion (constant velocity)
-            self._road_prediction = None
             return self.last_motion
-        plane = trusted_road_plane(flow.road_prev, flow.road_next, self.K, fit)
-        step_m = None if plane is None else self.camera_height_m / plane.distance
-        self._road_prediction = None
-        if plane is not None:
+        key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
+                                                                 threshold_px=self.threshold_px)
+        plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit)
+        # the road's length since the key frame, as this step's share at the speed it gives
+        step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
+        if plane is not None and road_moved_px < self.key_road_px and time_s - key_time_s < MAX_ROAD_KEY_S:
+            # the road moved too little for a precise scale: the next step measures from the same key frame
+            self._road_key, self._key_time_s, self._key_steps = key_frame, key_time_s, key_steps
+        elif plane is not None and key_is_previous:
             prediction = road_homography(self.K, fit, plane)
             road_px = self.road_px_undistorted
             if np.median(np.linalg.norm(_transform(road_px, prediction) - road_px, axis=1)) > self.predict_above_px:
@@ -192,7 +219,7 @@ class FlowGeometryStep(WorkingFrames):
         if step_m is not None:
             self.fallback_policy.road_seen(time_s)
         elif self.fallback is not None and self.fallback_policy.network_needed(time_s):
-            step_m = self.fallback.distance_m(previous.image, flow.current)  # the speed prior alone would drift
+            step_m = self.fallback.distance_m(previous.image, flow.current.image)  # the speed prior alone would drift
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))

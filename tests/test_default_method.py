@@ -1,0 +1,117 @@
+"""The default method's branches on exact correspondences: road scale, standstill, degenerate geometry, the
+network fallback, the road key frame; and its policies (fallback after a second, speed window in seconds)."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from flowvo.camera import Camera, CameraIntrinsics
+from flowvo.geometry import so3_exp
+from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
+from flowvo.road_scale import NetworkFallbackPolicy, road_homography
+from flowvo.speed_prior import SpeedPrior
+from flowvo.two_view import EssentialMotion
+
+HW = (188, 620)
+CAMERA = Camera(CameraIntrinsics(359.0, 359.0, 303.0, 92.0), height_m=1.5)
+EMPTY = np.zeros((0, 2), np.float32)
+
+
+def project(K, points):
+    pixels = points @ K.T
+    return (pixels[:, :2] / pixels[:, 2:]).astype(np.float32)
+
+
+def step_flow(step, step_m, yaw_rad=0.01, scene_moves=True):
+    """Exact tracks and road correspondences of a car moving ``step_m`` forward while turning."""
+    rng = np.random.default_rng(5)
+    scene = np.c_[rng.uniform(-15, 15, 300), rng.uniform(-5, 1.0, 300), rng.uniform(8, 50, 300)]
+    R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
+    t = -R @ np.array([0.0, 0.0, step_m])
+    rays = np.c_[step.road_px_undistorted, np.ones(len(step.road_px))] @ np.linalg.inv(step.K).T
+    road = rays * (step.camera_height_m / rays[:, 1:2])  # the grid's rays hit the road plane y = height
+    frame = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
+    moved = (lambda x: x @ R.T + t) if scene_moves else (lambda x: x)
+    return GeometryFlow(project(step.K, scene), project(step.K, moved(scene)), step.road_px_undistorted,
+                        project(step.K, moved(road)), frame)
+
+
+def fallback_network(step, distance_m):
+    calls = []
+    network = SimpleNamespace(network=SimpleNamespace(stack=1), working_hw=step.working_hw,
+                              distance_m=lambda previous, current: calls.append(1) or distance_m)
+    return network, calls
+
+
+def test_road_plane_at_the_camera_height_gives_the_metric_step():
+    step = FlowGeometryStep(CAMERA, HW)
+    motion = step.motion((0.0, 0.1), None, step_flow(step, 1.2))
+    assert np.linalg.norm(motion[:3, 3]) == pytest.approx(1.2, rel=1e-4)
+    assert motion[2, 3] > 0  # forward
+
+
+def test_a_still_road_and_scene_is_a_standstill():
+    step = FlowGeometryStep(CAMERA, HW)
+    np.testing.assert_array_equal(step.motion((0.0, 0.1), None, step_flow(step, 0.0, 0.0, False)), np.eye(4))
+
+
+def test_too_few_tracks_keep_the_last_motion():
+    step = FlowGeometryStep(CAMERA, HW)
+    first = step.motion((0.0, 0.1), None, step_flow(step, 1.0))
+    flow = step_flow(step, 1.0)
+    degenerate = GeometryFlow(flow.motion_prev[:10], flow.motion_next[:10], flow.road_prev, flow.road_next,
+                              flow.current)
+    np.testing.assert_array_equal(step.motion((0.1, 0.2), None, degenerate), first)
+
+
+def test_without_a_trusted_road_the_network_measures_after_a_second():
+    probe = FlowGeometryStep(CAMERA, HW)
+    network, calls = fallback_network(probe, 2.0)
+    step = FlowGeometryStep(CAMERA, HW, fallback=network)
+    step.motion((0.0, 0.1), None, step_flow(step, 1.0))  # a road: 10 m/s
+    flow = step_flow(step, 1.0)
+    no_road = GeometryFlow(flow.motion_prev, flow.motion_next, flow.road_prev[:5], flow.road_next[:5], flow.current)
+    times = np.arange(0.1, 1.6, 0.1)
+    lengths = [np.linalg.norm(step.motion((t, t + 0.1), flow.current, no_road)[:3, 3]) for t in times]
+    assert len(calls) == 5 and step.summary() == {"network_distance_steps": 5}  # after 1 s: t + 0.1 > 1.1
+    assert lengths[0] == pytest.approx(1.0, rel=1e-4) and lengths[-1] > 1.0  # the prior, then the network's 2 m pull
+
+
+def test_a_slowly_moving_road_keeps_its_key_frame_and_scales_the_step_by_time():
+    step = FlowGeometryStep(CAMERA, HW)
+    previous = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
+    slow = step_flow(step, 0.2)  # a small road motion: under the key frame threshold
+    assert np.linalg.norm(step.motion((0.0, 0.1), previous, slow)[:3, 3]) == pytest.approx(0.2, rel=1e-4)
+    assert step._road_key is previous and step._key_steps == 1  # the next step measures from the same frame
+    fast = step_flow(step, 1.0)
+    step.motion((0.1, 0.2), previous, fast)
+    assert step._road_key is None  # the road moved enough: the next step starts from this frame
+
+
+def test_network_fallback_policy_counts_only_after_its_horizon():
+    policy = NetworkFallbackPolicy(after_s=1.0)
+    assert policy.network_needed(0.5)  # nothing seen yet
+    policy.road_seen(1.0)
+    assert not policy.network_needed(1.9) and not policy.network_needed(2.0)
+    assert policy.network_needed(2.05) and policy.network_steps == 2
+
+
+def test_road_homography_maps_road_points_exactly():
+    K = CAMERA.K
+    R = so3_exp(np.array([0.0, 0.03, 0.0]))
+    t_dir = -R @ np.array([0.0, 0.0, 1.0])
+    road = np.c_[np.linspace(-3, 3, 20), np.full(20, 1.5), np.linspace(6, 30, 20)]  # y = 1.5 m below
+    plane = SimpleNamespace(normal=np.array([0.0, 1.0, 0.0]), distance=1.5 / 1.3)  # step 1.3 m, in step units
+    H = road_homography(K, EssentialMotion(R, t_dir, np.ones(20, bool)), plane)
+    before, after = project(K, road), project(K, road @ R.T + t_dir * 1.3)
+    mapped = np.c_[before, np.ones(20)] @ H.T
+    np.testing.assert_allclose(mapped[:, :2] / mapped[:, 2:], after, atol=1e-3)
+
+
+@pytest.mark.parametrize(("rate_hz", "window"), [(5.0, 9), (10.0, 9), (30.0, 27)])
+def test_speed_window_spans_the_same_time_at_any_frame_rate(rate_hz, window):
+    prior = SpeedPrior()
+    for k in range(60):
+        prior.update(k / rate_hz, 10.0)
+    assert prior._history.maxlen == window
