@@ -36,6 +36,8 @@ class BagSpec:
     info_size_wh: tuple[int, int] | None = None  # CameraInfo width, height (default: the frames' size)
     other_topics: dict[str, str] = field(default_factory=dict)  # topic -> "imu": one sensor_msgs/Imu message
     log_times_ns: Sequence[int] | None = None  # when the bag recorded each frame (default: its header stamp)
+    # (parent, child, translation xyz m, rotation xyzw) written as one tf2_msgs/TFMessage on /tf_static
+    tf_static: Sequence[tuple[str, str, tuple, tuple]] = ()
 
 
 def bag_path(folder: Path, kind: str, stem: str = "drive") -> Path:
@@ -61,6 +63,9 @@ def write_bag(folder: Path, kind: str, spec: BagSpec, stem: str = "drive") -> Pa
         for topic in spec.other_topics:
             conn = writer.add_connection(topic, "sensor_msgs/msg/Imu", typestore=store)
             writer.write(conn, int(spec.stamps_ns[0]), _serialize(store, ros1, _imu(store, ros1, spec.stamps_ns[0])))
+        if spec.tf_static:
+            conn = writer.add_connection("/tf_static", "tf2_msgs/msg/TFMessage", typestore=store)
+            writer.write(conn, int(spec.stamps_ns[0]), _serialize(store, ros1, _tf(store, ros1, spec)))
         log_times_ns = spec.log_times_ns or spec.stamps_ns
         for frame, stamp_ns, log_ns in zip(spec.frames, spec.stamps_ns, log_times_ns, strict=True):
             message = _image(store, ros1, spec.encoding, frame, stamp_ns)
@@ -122,3 +127,13 @@ def _imu(store, ros1: bool, stamp_ns: int):
         orientation_covariance=zeros, angular_velocity=Vector3(x=0.0, y=0.0, z=0.0),
         angular_velocity_covariance=zeros, linear_acceleration=Vector3(x=0.0, y=0.0, z=0.0),
         linear_acceleration_covariance=zeros)
+
+
+def _tf(store, ros1: bool, spec: BagSpec):
+    types = store.types
+    transforms = [types["geometry_msgs/msg/TransformStamped"](
+        header=_header(store, ros1, spec.stamps_ns[0], parent), child_frame_id=child,
+        transform=types["geometry_msgs/msg/Transform"](translation=types["geometry_msgs/msg/Vector3"](*xyz),
+                                                       rotation=types["geometry_msgs/msg/Quaternion"](*xyzw)))
+        for parent, child, xyz, xyzw in spec.tf_static]
+    return types["tf2_msgs/msg/TFMessage"](transforms=transforms)

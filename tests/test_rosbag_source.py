@@ -220,3 +220,26 @@ def test_importing_the_ros_modules_does_not_import_rosbags_or_mcap():
     src = Path(__file__).resolve().parents[1] / "src"
     subprocess.run([sys.executable, "-c", code], check=True, env={"PYTHONPATH": str(src), "PATH": ""})
 
+
+
+OPTICAL = (-0.5, 0.5, -0.5, 0.5)  # camera_link (x forward, z up) -> camera_optical (z forward, y down)
+RIG = [("base_footprint", "base_link", (0.0, 0.0, 0.3), (0.0, 0.0, 0.0, 1.0)),
+       ("base_link", "camera_link", (1.2, 0.1, 1.0), (0.0, 0.0, 0.0, 1.0)),
+       ("camera_link", "camera_optical", (0.0, 0.0, 0.0), OPTICAL)]
+
+
+@pytest.mark.parametrize("kind", ["ros2-sqlite3", "mcap"])
+def test_camera_height_comes_from_tf_static(tmp_path, kind):
+    bag = write_bag(tmp_path, kind, small_spec(tf_static=RIG))
+    assert open_bag_source(bag, TOPIC, INFO_TOPIC).camera_height_m == pytest.approx(1.3)
+    unconnected = write_bag(tmp_path / "other", kind, small_spec(tf_static=RIG[:1]))
+    assert open_bag_source(unconnected, TOPIC, INFO_TOPIC).camera_height_m is None
+
+
+def test_tf_height_follows_the_chain_of_rotations():
+    from flowvo.ros.tf_static import StaticTransform, camera_height_m
+
+    tilted = [StaticTransform("base_footprint", "mast", (0.0, 0.0, 2.0), (0.0, 0.7071068, 0.0, 0.7071068)),
+              StaticTransform("mast", "camera_optical", (0.5, 0.0, 0.0), (0.0, 0.0, 0.0, 1.0))]
+    assert camera_height_m(tilted, "camera_optical") == pytest.approx(1.5)  # the mast's x points down
+    assert camera_height_m(tilted, "nowhere") is None

@@ -60,14 +60,17 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
     return GivenCamera(intrinsics, file_distortion, file_height, source, where)
 
 
-def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str) -> Camera:
-    """The camera a drive runs with: ``given`` over the ``drive``'s own, checked against its frames."""
+def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str,
+                 drive_height_m: float | None = None) -> Camera:
+    """The camera a drive runs with: ``given`` over the ``drive``'s own (and the height the drive states,
+    ``drive_height_m``), checked against its frames."""
     if given.intrinsics is None and drive is None:
         raise FlowvoError("no camera intrinsics: give --calib FILE or --fx --fy --cx --cy (pixels of the frames)",
                           where)
     intrinsics = given.intrinsics or drive.intrinsics  # type: ignore[union-attr]
     distortion = given.distortion or (drive.distortion if drive and given.intrinsics is None else None)
-    height_m = given.height_m if given.height_m is not None else (drive.height_m if drive else None)
+    height_m = next((h for h in (given.height_m, drive.height_m if drive else None, drive_height_m) if h is not None),
+                    None)
     source = given.source or drive.source  # type: ignore[union-attr]
     camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source)
     check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)

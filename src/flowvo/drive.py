@@ -72,7 +72,7 @@ def open_drive(options: RunOptions) -> Drive:
                          options.distortion_model, options.camera_height_m)
     source = _open_source(options, given)
     where = options.data or options.video or options.bag
-    return Drive(source, drive_camera(given, source.camera, source.image_size_hw, str(where)))
+    return Drive(source, drive_camera(given, source.camera, source.image_size_hw, str(where), source.camera_height_m))
 
 
 def _open_source(options: RunOptions, given: GivenCamera) -> FrameSource:

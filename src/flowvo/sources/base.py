@@ -22,6 +22,8 @@ class FrameSource(Protocol):
     ``name``: used for output files (``NAME.txt``, ``NAME.tum``); a plain name, never a path.
     ``camera``: what the drive itself says of its camera (KITTI calib.txt, a ROS CameraInfo), in pixels of
     the frames as ``frames()`` yields them; None when it says nothing (a video).
+    ``camera_height_m``: the camera's height above the road when the drive says it (a bag's /tf_static, a
+    KITTI calib.txt line), else None.
     ``image_size_hw``: (height, width) of every frame.
     ``frame_count``: number of frames when known in advance (None for streams of unknown length).
     ``ground_truth``: camera-to-world poses per frame when the source has them, else None.
@@ -32,6 +34,7 @@ class FrameSource(Protocol):
 
     name: str
     camera: Camera | None
+    camera_height_m: float | None
     image_size_hw: tuple[int, int]
     frame_count: int | None
     ground_truth: Trajectory | None

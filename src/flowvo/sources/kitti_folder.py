@@ -31,6 +31,11 @@ class KittiFolderSource:
         return Camera(CameraIntrinsics.from_matrix(calibration.K0), calibration.distortion,
                       calibration.camera_height_m, "kitti")
 
+    @property
+    def camera_height_m(self) -> float | None:
+        """From the sequence's calib.txt, when it has the line."""
+        return self.camera.height_m
+
     @cached_property
     def ground_truth(self) -> Trajectory | None:
         """``ROOT/poses/NAME.txt`` when it exists."""

@@ -34,10 +34,13 @@ from flowvo.ros.images import (
     image_message_to_grey,
     raw_image_size_hw,
 )
+from flowvo.ros.tf_static import StaticTransform, camera_height_m
 from flowvo.sources.base import safe_source_name
 from flowvo.trajectory import Trajectory
 
 BAG_FILE_SUFFIXES = (".bag", ".mcap", ".db3")
+TF_STATIC_TOPIC = "/tf_static"
+TF_MESSAGE_TYPE = "tf2_msgs/msg/TFMessage"
 # What repairs a recording cut short (no index or summary at the end of the file).
 _REPAIR_HINTS = {".bag": "; if the recording was cut short, `rosbag reindex` may repair it",
                  ".mcap": "; if the recording was cut short, `mcap recover` may repair it"}
@@ -54,8 +57,10 @@ class BagSource:
     is_synthetic: bool = False
 
     def __init__(self, path: Path, topic: str, message_type: str, name: str, camera: Camera | None,
-                 image_size_hw: tuple[int, int], timestamps_s: np.ndarray) -> None:
+                 image_size_hw: tuple[int, int], timestamps_s: np.ndarray, camera_height_m: float | None = None
+                 ) -> None:
         self.path = path
+        self.camera_height_m = camera_height_m  # from /tf_static, when the bag has it
         self.topic = topic
         self.message_type = message_type
         self.name = name
@@ -100,9 +105,26 @@ def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None 
                               f"{_list_topics(reader, (CAMERA_INFO_TYPE,))}), --calib or --fx/--fy/--cx/--cy", bag)
         else:
             camera = None  # the given intrinsics describe it
+        height_m = _tf_static_height_m(reader, bag, topic)
     name = safe_source_name(bag.name if bag.is_dir() else bag.stem, "bag")  # a ROS 2 bag is a folder
     return BagSource(bag, topic, message_type, name, camera, image_size_hw,
-                     np.asarray(stamps_ns, dtype=np.int64) / 1e9)
+                     np.asarray(stamps_ns, dtype=np.int64) / 1e9, height_m)
+
+
+def _tf_static_height_m(reader: Any, bag: Path, topic: str) -> float | None:
+    """The image frame's height above ``base_footprint`` from ``/tf_static`` (None when the bag has no such
+    transforms or they do not connect the two frames)."""
+    info = reader.topics.get(TF_STATIC_TOPIC)
+    if info is None or info.msgtype != TF_MESSAGE_TYPE:
+        return None
+    with closing(_topic_messages(reader, bag, topic)) as messages:
+        camera_frame = next(messages)[1].header.frame_id
+    transforms = [StaticTransform(t.header.frame_id, t.child_frame_id,
+                                  (t.transform.translation.x, t.transform.translation.y, t.transform.translation.z),
+                                  (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+                                   t.transform.rotation.w))
+                  for _, msg in _topic_messages(reader, bag, TF_STATIC_TOPIC) for t in msg.transforms]
+    return camera_height_m(transforms, camera_frame)
 
 
 def _check_bag_path(path: Path) -> Path:

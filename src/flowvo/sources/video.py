@@ -47,6 +47,7 @@ class VideoSource:
     ground_truth: Trajectory | None = None
     is_synthetic: bool = False
     camera: Camera | None = None  # a video carries no camera description
+    camera_height_m: float | None = None
 
     def __init__(self, path: Path, name: str, image_size_hw: tuple[int, int], frame_count: int | None,
                  frame_rate_hz: float | None) -> None:
