@@ -320,7 +320,10 @@ def _camera_line(summary: dict) -> str:
     camera = summary["camera"]
     distortion = "no distortion" if camera["distortion_model"] == "none" else \
         f"{camera['distortion_model']} {' '.join(f'{v:g}' for v in camera['distortion'])}"
-    height = f"{camera['camera_height_m']:g} m" + ("" if camera["camera_height_given"] else " (KITTI's, assumed)")
+    height = f"{camera['camera_height_m']:g} m"
+    if not camera["camera_height_given"]:
+        height += " (KITTI's)" if camera["source"] == "kitti" else \
+            " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
     return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "
             f"cy {camera['cy']:.1f}, {distortion}, height {height}")
 
