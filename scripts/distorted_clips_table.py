@@ -8,20 +8,15 @@ Writes the warped clips as KITTI folders under OUT_DIR/data (never into the clip
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
-import subprocess
 from pathlib import Path
 
 import cv2
 import numpy as np
+from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT, run_cell
 
 from flowvo.camera import CameraIntrinsics, LensDistortion, undistort_points
 from flowvo.kitti.calib import read_calibration
-from flowvo.kitti.poses import read_kitti_poses
-from flowvo.metrics.kitti_odometry import trajectory_distances
-
-CLIPS = {"01": ["100"], "06": ["10", "20", "30", "40", "50"], "07": ["10", "20", "30", "40", "50"]}
 
 
 def lens_maps(image_hw: tuple[int, int], K: np.ndarray, distortion: LensDistortion) -> tuple[np.ndarray, np.ndarray]:
@@ -51,20 +46,11 @@ def warp_clip(clips: Path, clip: str, out: Path, distortion: LensDistortion) -> 
                                                                    borderMode=cv2.BORDER_CONSTANT))
 
 
-def run_cell(data: Path, clip: str, out: Path, lengths: list[str], extra: list[str], clips: Path) -> str:
-    subprocess.run(["flowvo", "-q", "run", "--data", str(data), "--sequence", clip, "--out", str(out), "--force",
-                    "--lengths", *lengths, *extra], check=True, capture_output=True)
-    metrics = json.loads((out / f"eval_{clip}" / "metrics.json").read_text())
-    truth = trajectory_distances(read_kitti_poses(clips / "poses" / f"{clip}.txt").positions)[-1]
-    length = trajectory_distances(read_kitti_poses(out / f"{clip}.txt").positions)[-1]
-    return f"{metrics['t_err_percent']:.2f} / {metrics['r_err_deg_per_m']:.4f} / {100 * (length / truth - 1):+.1f} %"
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
     parser.add_argument("clips", type=Path, nargs="?",
-                        default=Path(__file__).parents[2] / "shared/data/real/kitti_clips")
+                        default=DEFAULT_CLIPS_ROOT)
     parser.add_argument("--model", default="plumb_bob")
     parser.add_argument("--dist", nargs="+", type=float, default=[-0.25, 0.05, 0.0, 0.0])
     args = parser.parse_args()
@@ -73,11 +59,11 @@ def main() -> None:
     print(f"| clip | original frames | through the lens ({args.model} {' '.join(map(str, args.dist))}), run "
           "without --dist | through the lens, run with --dist |")
     print("| --- | --- | --- | --- |")
-    for clip, lengths in CLIPS.items():
+    for clip in CLIPS:
         warp_clip(args.clips, clip, args.out / "data", distortion)
-        cells = [run_cell(args.clips, clip, args.out / "original" / clip, lengths, [], args.clips),
-                 run_cell(args.out / "data", clip, args.out / "ignored" / clip, lengths, [], args.clips),
-                 run_cell(args.out / "data", clip, args.out / "undistorted" / clip, lengths, flags, args.clips)]
+        cells = [run_cell(args.clips, clip, args.out / "original" / clip),
+                 run_cell(args.out / "data", clip, args.out / "ignored" / clip),
+                 run_cell(args.out / "data", clip, args.out / "undistorted" / clip, flags)]
         print(f"| {clip} | " + " | ".join(cells) + " |")
     print("cells: t_err % / r_err deg/m / path length against the truth (01: 100 m sub-paths, 06/07: 10-50 m)")
 
