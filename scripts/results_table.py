@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from flowvo.evaluation import pooled_summary
-from flowvo.report import REFERENCE_FIGURES, load_run
+from flowvo.reference_system import REFERENCE_FIGURES
+from flowvo.report import load_run
 
 METHODS = ("flowvo", "flowvo-geometry", "cnn", "classical", "classical_gt")
 SEQUENCES = ("08", "09", "10")
