@@ -492,7 +492,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from flowvo.demo import demo, summary_lines
 
-    report, runs = demo(args.out, args.data, args.sequence, args.model, args.frames, args.force)
+    report, runs = demo(args.out, args.data, args.sequence, args.model, args.frames, args.force, args.camera_height)
     kind = "synthetic held-out drive" if args.data is None else f"sequence {args.sequence} of {args.data}"
     print(f"flowvo demo on the {kind}:")
     for line in summary_lines(runs):
@@ -509,6 +509,8 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sequence", help="sequence of --data")
     p.add_argument("--model", help="checkpoint of the CNN method (default: the packaged model)")
     p.add_argument("--frames", type=FRAME_COUNT, default=900, help="frames of the synthetic drive")
+    p.add_argument("--camera-height", type=_bounded(float, 0.0, 10.0, low_open=True), metavar="M",
+                   help="camera height above the road in metres (default: the sequence's calib.txt, else 1.65)")
     p.add_argument("--out", default="runs/demo", help="output folder")
     _force_flag(p, "the runs and report of an earlier demo in --out")
     p.set_defaults(func=_cmd_demo)

@@ -23,11 +23,11 @@ DEMO_MAX_SPEED_MPS = 15.0  # an urban drive, like the KITTI trajectories the pac
 
 
 def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence: str | None = None,
-         model: str | Path | None = None, frames: int = DEMO_FRAMES, force: bool = False
-         ) -> tuple[Path, list[dict]]:
+         model: str | Path | None = None, frames: int = DEMO_FRAMES, force: bool = False,
+         camera_height_m: float | None = None) -> tuple[Path, list[dict]]:
     """Run the whole product once; returns the report's index.html and the run summaries (default method
     first). ``force`` replaces the runs and the report of an earlier demo in ``out`` (the rendered drive
-    is reused when it is the same)."""
+    is reused when it is the same); ``camera_height_m`` overrides the sequence's camera height (metres)."""
     out = Path(out)
     if data is None:
         data, sequence = out / "data", "00"
@@ -45,7 +45,7 @@ def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence
     for method, extra in methods:
         folder = out / (method if extra.get("classical_scale") != "gt" else "classical_gt_scale")
         runs.append(run(RunOptions(out=str(folder), data=str(data), sequence=sequence, method=method, force=force,
-                                   lengths_m=lengths_m, **extra)))
+                                   lengths_m=lengths_m, camera_height_m=camera_height_m, **extra)))
         folders.append(folder)
     return write_report(folders, out / "report", force), runs
 
