@@ -123,9 +123,7 @@ def kitti_camera_t_err(tmp_path_factory) -> float:
 @pytest.mark.slow
 @pytest.mark.parametrize("camera", [
     pytest.param(SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL), id="10fps"),
-    # measured 7.66 % against 4.40 %: at 30 fps each step's road flow is 3x smaller (the lead reworks the
-    # method's frame-rate handling; strict, so the fix shows up here)
-    pytest.param(PHONE_LIKE, id="30fps", marks=pytest.mark.xfail(strict=True, reason="default method at 30 fps")),
+    pytest.param(PHONE_LIKE, id="30fps"),  # needs the road key frames: each step's road flow is 3x smaller
 ])
 def test_default_method_on_a_low_wide_distorted_camera_is_within_1_3x_of_kitti_camera(camera, kitti_camera_t_err,
                                                                                        tmp_path):
