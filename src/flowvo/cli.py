@@ -636,7 +636,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-RESUMABLE_COMMANDS = ("synth", "flow", "train")  # their finished chunks, frames and epochs are reused by a rerun
+RESUMABLE_COMMANDS = ("synth", "flow", "train", "batch")  # a rerun reuses their finished chunks, frames,
+# epochs and drives
 EXIT_INTERRUPTED, EXIT_TERMINATED = 130, 143  # the shell's 128 + SIGINT, 128 + SIGTERM
 
 
