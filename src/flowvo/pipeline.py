@@ -57,6 +57,8 @@ def run(options: RunOptions) -> dict:
         "camera": drive.camera.record(),
         "frames_per_second": timing["frames_per_second"],
     }
+    if drive.camera_estimate is not None:
+        summary["camera"]["estimate"] = drive.camera_estimate.record()
     if write_mcap:
         from flowvo.ros.odometry_mcap import write_odometry_mcap
 
