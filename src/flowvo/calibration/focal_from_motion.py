@@ -37,6 +37,7 @@ from scipy.spatial.transform import Rotation
 
 from flowvo.calibration.motion_pairs import PointPair
 from flowvo.methods.base import REFERENCE_WIDTH_PX  # the pixel thresholds below are set at this width
+from flowvo.progress import progress
 from flowvo.two_view import essential_motion
 
 SEARCH_RANGE_WIDTHS = (0.3, 3.0)  # focal lengths searched, in image widths: 118 deg to 19 deg field of view
@@ -190,11 +191,11 @@ class _Problem:
         costs = np.zeros((len(focals_px), len(self.pairs)))
         fitted: list[_Motions] = [motions] * len(focals_px)
         first = int(np.argmin(np.abs(np.log(focals_px / start_px))))
-        for sweep in (range(first, len(focals_px)), range(first, -1, -1)):
-            previous, previous_px = motions, start_px
-            for i in sweep:
-                fitted[i], costs[i] = self._fit(focals_px[i], _rescaled(previous, previous_px / focals_px[i]))
-                previous, previous_px = fitted[i], focals_px[i]
+        order = [*range(first, len(focals_px)), *range(first - 1, -1, -1)]
+        for i in progress(order, "fitting the focal length", len(order), "focal length"):
+            neighbour = i - 1 if i > first else i + 1  # fitted just before, on the side of the first
+            start, start_at_px = (motions, start_px) if i == first else (fitted[neighbour], focals_px[neighbour])
+            fitted[i], costs[i] = self._fit(focals_px[i], _rescaled(start, start_at_px / focals_px[i]))
         return costs, fitted
 
     def _fit(self, focal_px: float, motions: _Motions) -> tuple[_Motions, np.ndarray]:
