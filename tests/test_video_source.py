@@ -72,9 +72,10 @@ def test_truncated_file_raises_where_decoding_stops(video):
         list(source.frames())
 
 
-def test_missing_intrinsics_are_refused(video):
+def test_missing_intrinsics_of_a_video_too_small_to_estimate_them_are_refused(video):
     path, _ = video
-    with pytest.raises(FlowvoError, match=r"\(1\).avi: a video carries no camera intrinsics: give --calib"):
+    with pytest.raises(FlowvoError, match=r"\(1\).avi: no camera intrinsics, and the focal length cannot be "
+                                          r"estimated from the motion in the first 12 frames: .* give --calib"):
         open_drive(RunOptions(out="unused", video=str(path)))
 
 

@@ -279,7 +279,8 @@ def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None =
     if one_drive:
         drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
         drive.add_argument("--sequence", help="sequence name under DATA/sequences, e.g. 07")
-        drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy)")
+        drive.add_argument("--video", help="a video file OpenCV reads (with --calib or --fx --fy --cx --cy; without "
+                                           "them the focal length is estimated from the motion in its first frames)")
         drive.add_argument("--bag", help="a ROS 1 .bag, a ROS 2 bag folder or an .mcap (with --topic)")
     drive.add_argument("--topic", help="image topic of the bag (sensor_msgs/Image or CompressedImage)")
     drive.add_argument("--camera-info-topic", help="sensor_msgs/CameraInfo topic of the bag (intrinsics, distortion)")
@@ -328,6 +329,14 @@ def _camera_line(summary: dict) -> str:
             f"cy {camera['cy']:.1f}, {distortion}, height {height}")
 
 
+def _estimate_line(camera: dict) -> str:
+    """The focal length estimated from the motion, and the flags that give it next time, in one line."""
+    estimate = camera["estimate"]
+    return (f"estimated focal length {estimate['focal_px']:.0f} px (+- {100 * estimate['relative_uncertainty']:.1f} %) "
+            f"from {estimate['pairs_used']} frame pairs in the first {estimate['frames']} frames; next time pass "
+            f"--fx {camera['fx']:.1f} --fy {camera['fy']:.1f} --cx {camera['cx']:.1f} --cy {camera['cy']:.1f}")
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from flowvo.pipeline import run
 
@@ -336,6 +345,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     options.force, options.lengths_m = args.force, tuple(sorted(set(args.lengths)))
     summary = run(options)
     print(f"{summary['label']} on {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
+    if "estimate" in summary["camera"]:
+        print(_estimate_line(summary["camera"]))
     print(_camera_line(summary))
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")

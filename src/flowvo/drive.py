@@ -4,6 +4,7 @@ name (KITTI sequence, video file or ROS bag topic), its camera, and the per-fram
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from flowvo.camera import Camera
 from flowvo.camera_options import GivenCamera, drive_camera, given_camera
@@ -13,13 +14,17 @@ from flowvo.methods.base import OdometryStep
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
 from flowvo.sources.base import FrameSource
 
+if TYPE_CHECKING:
+    from flowvo.calibration.estimated_camera import EstimatedCamera
+
 
 @dataclass
 class RunOptions:
     """What to run on which drive.
 
     Drive: ``data`` + ``sequence`` (KITTI layout), ``video``, or ``bag`` + ``topic``. Camera: ``calib`` (any
-    calibration file) or ``fx, fy, cx, cy`` (bags: or ``camera_info_topic``), ``distortion`` (+
+    calibration file) or ``fx, fy, cx, cy`` (bags: or ``camera_info_topic``; a video without them: the focal
+    length estimated from its motion, :mod:`flowvo.calibration.estimated_camera`), ``distortion`` (+
     ``distortion_model``), ``camera_height_m``; see :mod:`flowvo.camera_options` for what overrides what.
     ``method``: a name of :data:`flowvo.methods.METHODS` (``model``: the network's checkpoint, default the
     packaged one; ``classical_scale`` "height", or "gt": GT step lengths, labelled so).
@@ -55,10 +60,12 @@ class RunOptions:
 
 @dataclass(frozen=True)
 class Drive:
-    """An opened drive: its frame source and the camera it runs with (see :mod:`flowvo.camera_options`)."""
+    """An opened drive: its frame source and the camera it runs with (see :mod:`flowvo.camera_options`);
+    ``camera_estimate``: where the intrinsics were estimated from the motion (a video without them)."""
 
     source: FrameSource
     camera: Camera
+    camera_estimate: EstimatedCamera | None = None
 
 
 def open_drive(options: RunOptions) -> Drive:
@@ -71,8 +78,15 @@ def open_drive(options: RunOptions) -> Drive:
     given = given_camera(options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
                          options.distortion_model, options.camera_height_m)
     source = _open_source(options, given)
-    where = options.data or options.video or options.bag
-    return Drive(source, drive_camera(given, source.camera, source.image_size_hw, str(where), source.camera_height_m))
+    where = str(options.data or options.video or options.bag)
+    estimated = None
+    if options.video and given.intrinsics is None:
+        from flowvo.calibration.estimated_camera import estimate_camera
+
+        estimated = estimate_camera(source, where)
+    own_camera = estimated.camera if estimated else source.camera
+    return Drive(source, drive_camera(given, own_camera, source.image_size_hw, where, source.camera_height_m),
+                 estimated)
 
 
 def _open_source(options: RunOptions, given: GivenCamera) -> FrameSource:
@@ -86,11 +100,7 @@ def _open_source(options: RunOptions, given: GivenCamera) -> FrameSource:
     if options.video:
         from flowvo.sources.video import open_video_source
 
-        source = open_video_source(options.video)
-        if given.intrinsics is None:
-            raise FlowvoError("a video carries no camera intrinsics: give --calib FILE or --fx --fy --cx --cy "
-                              "(in pixels of the video frames)", options.video)
-        return source
+        return open_video_source(options.video)
     from flowvo.sources.rosbag import open_bag_source
 
     if options.topic is None:

@@ -87,6 +87,8 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         "frames_per_second": timing["frames_per_second"],
         "lengths_m": list(options.lengths_m),
     }
+    if drive.camera_estimate is not None:
+        summary["camera"]["estimate"] = drive.camera_estimate.record()
     if options.mcap or options.bag:
         from flowvo.ros.odometry_mcap import write_odometry_mcap
 

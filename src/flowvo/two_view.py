@@ -44,16 +44,37 @@ def no_image_area(image: np.ndarray, margin_px: int = 6) -> np.ndarray:
     return cv2.dilate(black, np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)) > 0
 
 
+def _lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal Lucas-Kanade: where ``points_px`` (N, 2) moved to, (N, 2) float32 pixels, and which were
+    found, (N,) bool."""
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
+    start = points_px.reshape(-1, 1, 2).astype(np.float32)
+    if not len(start):  # OpenCV returns None for no points
+        return np.zeros((0, 2), np.float32), np.zeros(0, bool)
+    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, None, winSize=(15, 15), maxLevel=3,
+                                                criteria=criteria)
+    return moved.reshape(-1, 2), status[:, 0] == 1
+
+
 def track_points(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal Lucas-Kanade tracks of ``points_px`` (N, 2): the points that were found and where
     they moved to, each (M, 2) float32, pixels."""
-    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
-    start = points_px.reshape(-1, 1, 2).astype(np.float32)
-    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, None, winSize=(15, 15), maxLevel=3,
-                                                criteria=criteria)
-    found = status[:, 0] == 1
-    return start[found, 0], moved[found, 0]
+    moved, found = _lucas_kanade(previous, current, points_px)
+    return points_px.reshape(-1, 2).astype(np.float32)[found], moved[found]
+
+
+def track_points_checked(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray,
+                         max_return_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """Lucas-Kanade tracks of ``points_px`` (N, 2) checked forward-backward: where each moved to, (N, 2)
+    float32 pixels, and which are trustworthy, (N,) bool: found both ways, the backward track returning
+    within ``max_return_px`` of the start (this rejects most tracks that slid along an edge or onto a
+    compression block)."""
+    moved, found = _lucas_kanade(previous, current, points_px)
+    back, found_back = _lucas_kanade(current, previous, moved)
+    returned = np.linalg.norm(back - points_px.reshape(-1, 2), axis=1) <= max_return_px
+    return moved, found & found_back & returned
 
 
 def follow_flow(points_px: np.ndarray, flow_px: np.ndarray) -> np.ndarray:

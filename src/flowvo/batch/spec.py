@@ -78,9 +78,10 @@ def processing_settings(options: RunOptions) -> dict[str, Any]:
 
 
 def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: dict[tuple, None]) -> None:
-    """Refuse, before anything runs, a drive its options cannot run: a video without intrinsics, a bag
-    without an image topic, unreadable or invalid intrinsics. ``intrinsics_checked`` remembers the
-    intrinsics already read (a fleet shares a few calibration files)."""
+    """Refuse, before anything runs, a drive its options cannot run: a bag without an image topic, an
+    unreadable calibration file or invalid camera numbers (a video without intrinsics has its focal length
+    estimated when it runs). ``intrinsics_checked`` remembers the intrinsics already read (a fleet shares a
+    few calibration files)."""
     from flowvo.camera_options import given_camera
 
     if drive.kind == "bag" and options.topic is None:
@@ -89,9 +90,6 @@ def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: d
         return
     given = (options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
              options.distortion_model, options.camera_height_m)
-    if drive.kind == "video" and all(value is None for value in given[:5]):
-        raise FlowvoError(f"drive {drive.name} is a video, which carries no intrinsics: give --calib CALIB.txt "
-                          "or --fx --fy --cx --cy (or those manifest columns)")
     if given not in intrinsics_checked:
         try:
             given_camera(*given)
