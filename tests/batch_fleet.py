@@ -31,7 +31,7 @@ class Fleet:
 
 def write_video(path: Path, root: Path, sequence: str = "00", repeat: int = 1) -> Path:
     """The frames of ``root``'s ``sequence`` (``repeat`` times over) as a lossless FFV1 video at 10 frames/s."""
-    frames = list(KittiSequence(root, sequence).frames()) * repeat
+    frames = list(KittiSequence(root, sequence).images()) * repeat
     h, w = frames[0].shape
     writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"FFV1"), 10.0, (w, h))
     for frame in frames:

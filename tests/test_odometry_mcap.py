@@ -129,9 +129,12 @@ def test_bag_in_mcap_out_keeps_the_image_stamps(tmp_path):
     stamps_ns = [1_700_000_000_000_000_000 + k * 33_333_333 for k in range(3)]  # 30 Hz since 1970
     bag = write_bag(tmp_path, "ros1", BagSpec(frames, stamps_ns))
     source = open_bag_source(bag, "/camera/image_raw", intrinsics=CameraIntrinsics(10.0, 10.0, 5.0, 4.0))
-    out = write_odometry_mcap(tmp_path / "vo.mcap", source.timestamps_s, constant_motion(3))
-    logged = [log_ns for log_ns, _ in read_with_rosbags(out)["/flowvo/odom"]]
+    rounded = write_odometry_mcap(tmp_path / "rounded.mcap", source.timestamps_s, constant_motion(3))
+    logged = [log_ns for log_ns, _ in read_with_rosbags(rounded)["/flowvo/odom"]]
     assert np.all(np.abs(np.array(logged) - stamps_ns) <= 120)  # float64 seconds since 1970: 0.24 us resolution
+    exact = write_odometry_mcap(tmp_path / "vo.mcap", source.timestamps_s, constant_motion(3),
+                                exact_stamps_ns=source.stamps_ns)
+    assert [log_ns for log_ns, _ in read_with_rosbags(exact)["/flowvo/odom"]] == stamps_ns  # exact-time sync
 
 
 def test_existing_output_survives_a_failed_write_and_no_temporary_files_remain(tmp_path, monkeypatch):

@@ -37,7 +37,7 @@ def kitti(tmp_path_factory) -> KittiSequence:
 
 def kitti_spec(kitti: KittiSequence, encoding: str, **changes) -> BagSpec:
     stamps_ns = [int(round(t * 1e9)) for t in kitti.times_s]
-    spec = BagSpec(list(kitti.frames()), stamps_ns, encoding, K=kitti.calibration.K0[:3, :3])
+    spec = BagSpec(list(kitti.images()), stamps_ns, encoding, K=kitti.calibration.K0[:3, :3])
     for name, value in changes.items():
         setattr(spec, name, value)
     return spec
@@ -64,7 +64,7 @@ def test_bag_frames_stamps_and_intrinsics_equal_the_kitti_folder(tmp_path, kitti
     assert source.camera.distortion.is_none and source.camera.source == "camera_info"
     frames = list(source.frames())
     np.testing.assert_allclose([t for t, _ in frames], kitti.times_s, atol=1e-9)
-    for (_, image), expected in zip(frames, kitti.frames(), strict=True):
+    for (_, image), expected in zip(frames, kitti.images(), strict=True):
         assert image.dtype == np.uint8 and np.array_equal(image, expected)
 
 

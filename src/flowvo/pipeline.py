@@ -93,7 +93,8 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         from flowvo.ros.odometry_mcap import write_odometry_mcap
 
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
-                            frame_id=options.frame_id, child_frame_id=options.child_frame_id)
+                            frame_id=options.frame_id, child_frame_id=options.child_frame_id,
+                            exact_stamps_ns=None if source.stamps_ns is None else source.stamps_ns[:result.frames])
         summary["mcap"] = f"{source.name}.mcap"
     summary.update(step.summary())
     if ground_truth is not None:

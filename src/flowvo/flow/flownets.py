@@ -16,6 +16,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from flowvo.errors import FlowvoError
+from flowvo.torch_files import load_torch_file
 
 DIV_FLOW = 20.0
 MEAN_RGB = (0.411, 0.432, 0.45)
@@ -98,10 +99,7 @@ def load_flownets(path: str | Path | None) -> FlowNetS:
     path = Path(path)
     if not path.is_file():
         raise FlowvoError(f"weights file not found. {WEIGHTS_HELP}", path)
-    try:
-        checkpoint = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as error:  # torch raises several types for corrupt or foreign files
-        raise FlowvoError(f"cannot read as a PyTorch checkpoint ({type(error).__name__})", path) from None
+    checkpoint = load_torch_file(path)
     state = checkpoint.get("state_dict", checkpoint) if isinstance(checkpoint, dict) else None
     if not isinstance(state, dict) or "conv1.0.weight" not in state:
         raise FlowvoError("not a FlowNetS state_dict (no key conv1.0.weight)", path)

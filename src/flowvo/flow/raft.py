@@ -12,6 +12,7 @@ import numpy as np
 import torch
 
 from flowvo.errors import FlowvoError
+from flowvo.torch_files import load_torch_file
 
 
 class RaftFlow:
@@ -30,7 +31,7 @@ class RaftFlow:
             )
         builder = optical_flow.raft_small if name == "raft-small" else optical_flow.raft_large
         self.model = builder(weights=None)
-        self.model.load_state_dict(torch.load(weights, map_location="cpu", weights_only=True))
+        self.model.load_state_dict(load_torch_file(weights))
         self.model.eval().to(device)
         self.name, self.weights, self.device = name, str(weights), device
 

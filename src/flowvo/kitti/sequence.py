@@ -159,7 +159,8 @@ class KittiSequence:
             raise FlowvoError("cannot decode image", path)
         return image
 
-    def frames(self, color: bool = False, start: int = 0):
-        """Iterate over the frames in order, reading each lazily."""
+    def images(self, color: bool = False, start: int = 0):
+        """The frames' images in order, each read when it is reached (without times: the frame source of
+        a sequence, :class:`flowvo.sources.kitti_folder.KittiFolderSource`, yields both)."""
         for index in range(start, len(self)):
             yield self.read_image(index, color)

@@ -18,6 +18,7 @@ from flowvo.errors import FlowvoError
 from flowvo.model.config import ModelConfig
 from flowvo.model.network import OdometryNet
 from flowvo.model.preprocess import Normalization
+from flowvo.torch_files import load_torch_file
 
 FORMAT = "flowvo-odometry-v1"
 RUNNABLE_KEYS = ("model_config", "normalization", "model_state")
@@ -43,10 +44,7 @@ def read_checkpoint(path: str | Path) -> dict:
     path = Path(path)
     if not path.is_file():
         raise FlowvoError("model checkpoint not found", path)
-    try:
-        state = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as error:  # torch raises several types for corrupt or foreign files
-        raise FlowvoError(f"cannot read as a PyTorch checkpoint ({type(error).__name__})", path) from None
+    state = load_torch_file(path)
     if not isinstance(state, dict) or state.get("format") != FORMAT:
         raise FlowvoError(f"not a flowvo odometry checkpoint (expected format {FORMAT})", path)
     missing = [key for key in RUNNABLE_KEYS if not isinstance(state.get(key), dict)]

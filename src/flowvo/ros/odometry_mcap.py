@@ -40,16 +40,19 @@ DEFAULT_PATH_TOPIC = "/flowvo/path"
 def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam: np.ndarray,
                         frame_id: str = DEFAULT_FRAME_ID, child_frame_id: str = DEFAULT_CHILD_FRAME_ID,
                         odometry_topic: str = DEFAULT_ODOMETRY_TOPIC, tf_topic: str = DEFAULT_TF_TOPIC,
-                        path_topic: str = DEFAULT_PATH_TOPIC) -> Path:
+                        path_topic: str = DEFAULT_PATH_TOPIC, exact_stamps_ns: np.ndarray | None = None) -> Path:
     """Write the camera poses ``T_world_cam`` (N, 4, 4; flowvo's optical world frame, metres) stamped with
-    ``timestamps_s`` (N,; seconds, non-negative, strictly increasing; rounded to nanoseconds) to the MCAP file
-    ``path``, atomically (a temporary file renamed into place); returns ``path``.
+    ``timestamps_s`` (N,; seconds, non-negative, strictly increasing; rounded to nanoseconds), or with
+    ``exact_stamps_ns`` (N,) when given (the images' own integer stamps), to the MCAP file ``path``,
+    atomically (a temporary file renamed into place); returns ``path``.
 
     Raises ValueError for arrays of the wrong shape or stamps out of order, and FlowvoError for frame ids
     that tf2 refuses (empty, leading '/', parent == child) and topics that are not absolute ROS names.
     """
     require_ros_extra("writing MCAP odometry")
     stamps_ns = _stamps_ns(timestamps_s, T_world_cam)
+    if exact_stamps_ns is not None:  # float seconds since 1970 lose up to ~120 ns: ROS exact-time sync needs these
+        stamps_ns = [int(ns) for ns in exact_stamps_ns]
     check_names(frame_id, child_frame_id, (odometry_topic, tf_topic, path_topic))
     from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore

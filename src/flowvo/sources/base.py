@@ -30,11 +30,14 @@ class FrameSource(Protocol):
     ``frames()``: yields ``(timestamp_s, image)`` in order, image (H, W) uint8 grey; timestamps strictly
     increasing, in seconds (KITTI: times.txt; video: container time; bags: header stamps).
     ``is_synthetic``: True for frames flowvo rendered itself.
+    ``stamps_ns``: the frames' stamps as integer nanoseconds when the source has them exactly (bag header
+    stamps: float seconds since 1970 lose up to ~120 ns), else None.
     """
 
     name: str
     camera: Camera | None
     camera_height_m: float | None
+    stamps_ns: np.ndarray | None
     image_size_hw: tuple[int, int]
     frame_count: int | None
     ground_truth: Trajectory | None

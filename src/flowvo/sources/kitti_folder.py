@@ -16,6 +16,8 @@ class KittiFolderSource:
     """Frames ``image_0`` of ``ROOT/sequences/NAME`` with the camera of its calib.txt (P0, and the optional
     distortion and camera height lines)."""
 
+    stamps_ns: np.ndarray | None = None  # times.txt holds seconds
+
     def __init__(self, sequence: KittiSequence) -> None:
         self.sequence = sequence
         self.name = sequence.sequence

@@ -57,7 +57,7 @@ class BagSource:
     is_synthetic: bool = False
 
     def __init__(self, path: Path, topic: str, message_type: str, name: str, camera: Camera | None,
-                 image_size_hw: tuple[int, int], timestamps_s: np.ndarray, camera_height_m: float | None = None
+                 image_size_hw: tuple[int, int], stamps_ns: np.ndarray, camera_height_m: float | None = None
                  ) -> None:
         self.path = path
         self.camera_height_m = camera_height_m  # from /tf_static, when the bag has it
@@ -66,8 +66,9 @@ class BagSource:
         self.name = name
         self.camera = camera
         self.image_size_hw = image_size_hw
-        self.timestamps_s = timestamps_s
-        self.frame_count: int | None = len(timestamps_s)
+        self.stamps_ns = stamps_ns  # exact, for outputs stamped like the images
+        self.timestamps_s = stamps_ns / 1e9
+        self.frame_count: int | None = len(stamps_ns)
 
     def frames(self) -> Iterator[tuple[float, np.ndarray]]:
         """Yield ``(timestamp_s, image (H, W) uint8 grey)`` per message of the topic, in bag order."""
@@ -108,7 +109,7 @@ def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None 
         height_m = _tf_static_height_m(reader, bag, topic)
     name = safe_source_name(bag.name if bag.is_dir() else bag.stem, "bag")  # a ROS 2 bag is a folder
     return BagSource(bag, topic, message_type, name, camera, image_size_hw,
-                     np.asarray(stamps_ns, dtype=np.int64) / 1e9, height_m)
+                     np.asarray(stamps_ns, dtype=np.int64), height_m)
 
 
 def _tf_static_height_m(reader: Any, bag: Path, topic: str) -> float | None:
