@@ -126,3 +126,20 @@ def test_nothing_is_left_half_written_when_a_write_fails(data, tmp_path, capsys,
     assert code == 2 and "run.json: No space left on device" in err
     assert not [p for p in out.rglob("*") if p.name.endswith(".tmp") or p.name.startswith(".")]
     assert tree_digest(out) == before  # the earlier result is whole: --force replaces only with a finished one
+
+
+def test_ctrl_c_while_the_command_line_imports_is_one_line(monkeypatch, capsys):
+    import builtins
+
+    from flowvo import entry
+
+    real_import = builtins.__import__
+
+    def interrupted(name, *args, **kwargs):
+        if name == "flowvo.cli":
+            raise KeyboardInterrupt
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert entry.main() == 130
+    assert capsys.readouterr().err == "flowvo: interrupted while starting\n"

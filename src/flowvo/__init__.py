@@ -1,3 +1,3 @@
-"""flowvo: learned visual odometry from dense optical flow."""
+"""flowvo: monocular visual odometry from dense optical flow, with metric scale from the road."""
 
 __version__ = "0.1.0"
