@@ -22,6 +22,8 @@ import numpy as np
 from flowvo.errors import FlowvoError
 
 KITTI_CAMERA_HEIGHT_M = 1.65  # KITTI's left grey camera above the road (its published rig drawing)
+MIN_FOCAL_PX = 1.0  # below a pixel no frame is imaged
+MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000 px frame: no odometry
 MAX_CAMERA_HEIGHT_M = 10.0  # a camera on a truck cab is ~3 m; beyond 10 m no road scale makes sense
 
 # model name -> accepted coefficient counts
@@ -190,3 +192,18 @@ def check_camera_height(height_m: float, where: str | None = None) -> float:
         raise FlowvoError(f"camera height must be a finite number of metres in (0, {MAX_CAMERA_HEIGHT_M:g}], "
                           f"got {height_m}", where)
     return float(height_m)
+
+
+def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int] | None, where: str | None) -> None:
+    """Refuse focal lengths that are not finite or outside [1, 1e5] px and, when the frame size (height,
+    width) is known, a principal point outside the frame; ``where`` names the file or flags in the error."""
+    values = (intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)
+    if not all(math.isfinite(v) for v in values) or min(intrinsics.fx, intrinsics.fy) < MIN_FOCAL_PX \
+            or max(intrinsics.fx, intrinsics.fy) > MAX_FOCAL_PX:
+        raise FlowvoError(f"intrinsics must be finite with focal lengths in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px, "
+                          f"got fx={intrinsics.fx} fy={intrinsics.fy} cx={intrinsics.cx} cy={intrinsics.cy}", where)
+    if image_size_hw is not None:
+        h, w = image_size_hw
+        if not (0 <= intrinsics.cx < w and 0 <= intrinsics.cy < h):
+            raise FlowvoError(f"principal point ({intrinsics.cx}, {intrinsics.cy}) lies outside the {w}x{h} image",
+                              where)

@@ -8,14 +8,10 @@ Precedence: intrinsics from ``--calib`` or ``--fx --fy --cx --cy`` replace the d
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-from flowvo.camera import Camera, CameraIntrinsics, LensDistortion, check_camera_height
+from flowvo.camera import Camera, CameraIntrinsics, LensDistortion, check_camera_height, check_intrinsics
 from flowvo.errors import FlowvoError
-
-MIN_FOCAL_PX = 1.0  # below a pixel no frame is imaged
-MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000 px frame: no odometry
 
 
 @dataclass(frozen=True)
@@ -75,18 +71,3 @@ def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[
     camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source)
     check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)
     return camera
-
-
-def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int] | None, where: str) -> None:
-    """Refuse focal lengths that are not finite or outside [1, 1e5] px, and a principal point outside the
-    frame (or, with the frame size known, so low that the road below it is not in the frame)."""
-    values = (intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)
-    if not all(math.isfinite(v) for v in values) or min(intrinsics.fx, intrinsics.fy) < MIN_FOCAL_PX \
-            or max(intrinsics.fx, intrinsics.fy) > MAX_FOCAL_PX:
-        raise FlowvoError(f"intrinsics must be finite with focal lengths in [{MIN_FOCAL_PX:g}, {MAX_FOCAL_PX:g}] px, "
-                          f"got fx={intrinsics.fx} fy={intrinsics.fy} cx={intrinsics.cx} cy={intrinsics.cy}", where)
-    if image_size_hw is not None:
-        h, w = image_size_hw
-        if not (0 <= intrinsics.cx < w and 0 <= intrinsics.cy < h):
-            raise FlowvoError(f"principal point ({intrinsics.cx}, {intrinsics.cy}) lies outside the {w}x{h} image",
-                              where)

@@ -16,14 +16,13 @@ Numbers are checked where they are read: one line naming the file and what is wr
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from flowvo.camera import CameraIntrinsics, LensDistortion, check_camera_height
+from flowvo.camera import CameraIntrinsics, LensDistortion, check_camera_height, check_intrinsics
 from flowvo.errors import FlowvoError
 
 MAX_CALIBRATION_BYTES = 1_000_000  # calibration files are a few kB; anything larger is not one
@@ -78,7 +77,7 @@ def _kitti(path: Path) -> CameraFile:
 
     calibration = read_calibration(path)
     intrinsics = CameraIntrinsics.from_matrix(calibration.K0)
-    _check_intrinsics(intrinsics, path)
+    check_intrinsics(intrinsics, None, str(path))
     return CameraFile(intrinsics, calibration.distortion, calibration.camera_height_m, None, "kitti calib.txt")
 
 
@@ -175,7 +174,7 @@ def _size(width: Any, height: Any) -> tuple[int, int] | None:
 
 def _camera_file(intrinsics: CameraIntrinsics, model: Any, coefficients: tuple, height: Any,
                  size: tuple[int, int] | None, kind: str, path: Path) -> CameraFile:
-    _check_intrinsics(intrinsics, path)
+    check_intrinsics(intrinsics, None, str(path))
     coefficients = tuple(_numbers(list(coefficients), "distortion coefficients", path))
     if model is None:  # OpenCV leaves the model to the count: 4 or 5 plumb-bob, 8 rational
         model = "rational_polynomial" if len(coefficients) == 8 else "plumb_bob"
@@ -191,13 +190,6 @@ def _number(value: Any, name: str, path: Path) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise FlowvoError(f"{name} must be a number, got {value!r}", path)
     return float(value)
-
-
-def _check_intrinsics(intrinsics: CameraIntrinsics, path: Path) -> None:
-    values = (intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy)
-    if not all(math.isfinite(v) for v in values) or intrinsics.fx <= 0 or intrinsics.fy <= 0:
-        raise FlowvoError(f"intrinsics must be finite with positive focal lengths, got fx={intrinsics.fx} "
-                          f"fy={intrinsics.fy} cx={intrinsics.cx} cy={intrinsics.cy}", path)
 
 
 def format_ros_calibration(intrinsics: CameraIntrinsics, distortion: LensDistortion, image_size_hw: tuple[int, int],
