@@ -52,7 +52,8 @@ def test_classical_baseline_with_gt_scale_tracks_the_synthetic_drive(classical_r
     assert summary["synthetic"] is True
     assert summary["metrics"]["t_err_percent"] < 10.0  # measured ~2 % on such drives
     timing = json.loads((runs[0] / "timing.json").read_text())
-    assert set(timing["seconds_per_frame"]) == {"image_read", "flow", "network", "geometry", "chaining", "total"}
+    assert set(timing["seconds_per_frame"]) == {"image_read", "flow", "network", "geometry", "window", "chaining",
+                                               "total"}
 
 
 def test_bench_prints_the_timing_table(classical_runs, capsys):
@@ -80,7 +81,7 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "report:" in printed and "synthetic" in printed
     page = (tmp_path / "report" / "index.html").read_text()
-    assert "flowvo (dis-medium-fine road flow, geometry, network fallback)" in page
+    assert "flowvo (dis-medium-fine road flow, geometry, network fallback, 5-frame scale window)" in page
     assert "cnn (dis-medium flow + network)" in page
     assert "classical (KLT" in page
     assert re.search(r"flowvo \(dis-medium-fine[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary

@@ -4,10 +4,11 @@ import numpy as np
 import pytest
 
 from flowvo.errors import FlowvoError
+from flowvo.methods.base import NoWindow
 from flowvo.stream import stream_odometry
 
 
-class CountingStep:
+class CountingStep(NoWindow):
     """A deterministic step: the motion depends on both frames, the times and the previous motions."""
 
     label = "test step"
@@ -46,6 +47,37 @@ def test_stream_poses_equal_the_sequential_stages(overlap):
     np.testing.assert_array_equal(result.T_world_cam, np.stack(expected))
     np.testing.assert_array_equal(result.timestamps_s, [t for t, _ in data])
     assert result.frames == 25 and result.wall_seconds > 0
+
+
+class LateStep(CountingStep):
+    """CountingStep whose window stage returns each motion two steps late, doubled in length."""
+
+    latency_frames = 2
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.held: list = []
+
+    def refine(self, time_s, motion):
+        doubled = motion.copy()
+        doubled[0, 3] *= 2
+        self.held.append((time_s, doubled))
+        return [self.held.pop(0)] if len(self.held) > self.latency_frames else []
+
+    def flush(self):
+        held, self.held = self.held, []
+        return held
+
+
+@pytest.mark.parametrize("overlap", [True, False])
+def test_a_late_window_stage_keeps_every_frame_in_order(overlap):
+    result = stream_odometry(iter(frames()), LateStep(), overlap=overlap)
+    plain = stream_odometry(iter(frames()), CountingStep(), overlap=overlap)
+    steps = np.linalg.inv(plain.T_world_cam[:-1]) @ plain.T_world_cam[1:]
+    late_steps = np.linalg.inv(result.T_world_cam[:-1]) @ result.T_world_cam[1:]
+    np.testing.assert_allclose(late_steps[:, 0, 3], 2 * steps[:, 0, 3], rtol=1e-12)
+    np.testing.assert_array_equal(result.timestamps_s, [t for t, _ in frames()])
+    assert result.frames == 25 and result.stage_seconds["window"] >= 0
 
 
 def test_max_frames_stops_early():

@@ -85,6 +85,7 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         "poses": f"{source.name}.txt",
         "camera": drive.camera.record(),
         "frames_per_second": timing["frames_per_second"],
+        "latency_frames": step.latency_frames,  # each pose is final this many frames after its own arrives
         "lengths_m": list(options.lengths_m),
     }
     if drive.camera_estimate is not None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-STAGES = ("image_read", "flow", "network", "geometry", "chaining")
+STAGES = ("image_read", "flow", "network", "geometry", "window", "chaining")
 
 
 def stage_seconds_text(method: str, stage: str, seconds: float | None) -> str:

@@ -118,18 +118,33 @@ def _read(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep,
 
 def _motions(prepared_frames: Iterable[tuple[float, Any, float]],
              step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, dict[str, float]]]:
-    """Yield ``(time_s, motion from the previous frame (None for the first), seconds per stage)``."""
+    """Yield ``(time_s, motion from the previous frame (None for the first), seconds per stage)`` in frame
+    order, each motion once the step's window stage has made it final (``step.latency_frames`` late); the
+    seconds of frames whose motion is not final yet come with the next one yielded."""
     previous, previous_time_s = None, None
+    seconds = dict.fromkeys(("image_read", "flow", step.motion_stage, "window"), 0.0)
     for time_s, prepared, read_s in prepared_frames:
-        seconds, motion = {"image_read": read_s}, None
-        if previous is not None:
+        seconds["image_read"] += read_s
+        if previous is None:
+            yield time_s, None, seconds
+            seconds = dict.fromkeys(seconds, 0.0)
+        else:
             start = time.perf_counter()
             flow = step.flow(previous, prepared)
             middle = time.perf_counter()
             motion = step.motion((previous_time_s, time_s), previous, flow)
-            seconds.update({"flow": middle - start, step.motion_stage: time.perf_counter() - middle})
-        yield time_s, motion, seconds
+            end = time.perf_counter()
+            final = step.refine(time_s, motion)
+            seconds["flow"] += middle - start
+            seconds[step.motion_stage] += end - middle
+            seconds["window"] += time.perf_counter() - end
+            for final_time_s, final_motion in final:
+                yield final_time_s, final_motion, seconds
+                seconds = dict.fromkeys(seconds, 0.0)
         previous, previous_time_s = prepared, time_s
+    for final_time_s, final_motion in step.flush():
+        yield final_time_s, final_motion, seconds
+        seconds = dict.fromkeys(seconds, 0.0)
 
 
 def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep, total: int | None = None,

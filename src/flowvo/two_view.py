@@ -44,8 +44,8 @@ def no_image_area(image: np.ndarray, margin_px: int = 6) -> np.ndarray:
     return cv2.dilate(black, np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)) > 0
 
 
-def _lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal Lucas-Kanade: where ``points_px`` (N, 2) moved to, (N, 2) float32 pixels, and which were
     found, (N,) bool."""
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
@@ -61,7 +61,7 @@ def track_points(previous: np.ndarray, current: np.ndarray, points_px: np.ndarra
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Pyramidal Lucas-Kanade tracks of ``points_px`` (N, 2): the points that were found and where
     they moved to, each (M, 2) float32, pixels."""
-    moved, found = _lucas_kanade(previous, current, points_px)
+    moved, found = lucas_kanade(previous, current, points_px)
     return points_px.reshape(-1, 2).astype(np.float32)[found], moved[found]
 
 
@@ -71,8 +71,8 @@ def track_points_checked(previous: np.ndarray, current: np.ndarray, points_px: n
     float32 pixels, and which are trustworthy, (N,) bool: found both ways, the backward track returning
     within ``max_return_px`` of the start (this rejects most tracks that slid along an edge or onto a
     compression block)."""
-    moved, found = _lucas_kanade(previous, current, points_px)
-    back, found_back = _lucas_kanade(current, previous, moved)
+    moved, found = lucas_kanade(previous, current, points_px)
+    back, found_back = lucas_kanade(current, previous, moved)
     returned = np.linalg.norm(back - points_px.reshape(-1, 2), axis=1) <= max_return_px
     return moved, found & found_back & returned
 
@@ -122,6 +122,13 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
 def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Viewing rays (N, 3) with z = 1 of pixels (N, 2)."""
     return np.c_[points_px, np.ones(len(points_px))] @ np.linalg.inv(K).T
+
+
+def pair_depths(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """Depths (z, N each) of correspondences (N, 2) in the first and in the second camera, in units of the
+    step length (midpoint method)."""
+    return _depths(_rays(points_prev, K), _rays(points_next, K), motion)
 
 
 def _depths(rays_prev: np.ndarray, rays_next: np.ndarray, motion: EssentialMotion

@@ -31,14 +31,16 @@ class Method:
     build: Callable[[RunOptions, FrameSource, Camera], OdometryStep]
 
 
-def _flowvo(with_network: bool) -> Callable[..., Any]:
+def _flowvo(with_network: bool, with_window: bool) -> Callable[..., Any]:
     def build(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
         from flowvo.methods.cnn import load_cnn_step
         from flowvo.methods.flowvo import DEFAULT_ROAD_FLOW_METHOD, FlowGeometryStep
+        from flowvo.scale_window import ScaleWindow
 
         fallback = load_cnn_step(camera, source.image_size_hw, options.model) if with_network else None
         return FlowGeometryStep(camera, source.image_size_hw, flow_method=options.flow_method or
-                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback)
+                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback,
+                                window=ScaleWindow() if with_window else None)
     return build
 
 
@@ -60,10 +62,15 @@ def _classical(options: RunOptions, source: FrameSource, camera: Camera) -> Odom
 
 
 _GEOMETRY_STAGES = ("image_read", "flow", "geometry", "chaining")  # flowvo's rare network fallback is geometry
+_WINDOW_STAGES = ("image_read", "flow", "geometry", "window", "chaining")
 METHODS: dict[str, Method] = {method.name: method for method in (
-    Method("flowvo", "default: tracked points + dense road flow, road-plane scale from the camera height, the "
-                     "packaged network where no road is seen", _GEOMETRY_STAGES, _flowvo(with_network=True)),
-    Method("flowvo-geometry", "the default without the network", _GEOMETRY_STAGES, _flowvo(with_network=False)),
+    Method("flowvo", "default: tracked points + dense road flow, road-plane scale from the camera height, step "
+                     "lengths refined over a 2 s window (three-view ratios; poses 5 frames late), the packaged "
+                     "network where no road is seen", _WINDOW_STAGES, _flowvo(with_network=True, with_window=True)),
+    Method("flowvo-geometry", "the default without the network", _WINDOW_STAGES,
+           _flowvo(with_network=False, with_window=True)),
+    Method("flowvo-pair", "the default's per-pair estimate: each step from its own two frames and a speed prior, "
+                          "no latency", _GEOMETRY_STAGES, _flowvo(with_network=True, with_window=False)),
     Method("cnn", "the thesis network (--model, default the packaged one) on the flow field",
            ("image_read", "flow", "network", "chaining"), _cnn),
     Method("classical", "KLT corners + essential matrix, camera-height scale (or --scale-from gt)",

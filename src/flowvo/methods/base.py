@@ -6,7 +6,10 @@ current)`` estimates what moved between two working frames (stateless), and ``mo
 flow)`` turns that into the camera motion ``T_prev_cur`` (4x4: the current camera's pose in the previous
 camera's frame, metres), called once per step in frame order, so it may keep history (past flows for a
 stacked network, the speed prior). Every caller (run, bench, the demo; KITTI folders, video, bags)
-therefore runs exactly the same inference. ``summary()`` reports what the method wants kept in run.json.
+therefore runs exactly the same inference. ``refine(time_s, motion)``, right after ``motion``, is a
+window stage: it returns the motions that are final, ``latency_frames`` steps late (at once for the
+methods without a window, :class:`NoWindow`); ``flush()`` returns the rest at the end of the drive.
+``summary()`` reports what the method wants kept in run.json.
 """
 
 from __future__ import annotations
@@ -35,7 +38,27 @@ class OdometryStep(Protocol):
 
     def motion(self, times_s: tuple[float, float], previous: Any, flow: Any) -> np.ndarray: ...
 
+    latency_frames: int  # how many steps late ``refine`` returns a motion
+
+    def refine(self, time_s: float, motion: np.ndarray) -> list[tuple[float, np.ndarray]]: ...
+
+    def flush(self) -> list[tuple[float, np.ndarray]]: ...
+
     def summary(self) -> dict: ...
+
+
+class NoWindow:
+    """The window stage of a method without one: every motion is final at once."""
+
+    latency_frames = 0
+
+    def refine(self, time_s: float, motion: np.ndarray) -> list[tuple[float, np.ndarray]]:
+        """The motion of the step ending at ``time_s``, unchanged."""
+        return [(time_s, motion)]
+
+    def flush(self) -> list[tuple[float, np.ndarray]]:
+        """Nothing is held back."""
+        return []
 
 
 class WorkingFrames:

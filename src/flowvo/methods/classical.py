@@ -14,6 +14,7 @@ import numpy as np
 
 from flowvo.camera import Camera, undistort_points
 from flowvo.geometry import invert_se3
+from flowvo.methods.base import NoWindow
 
 MIN_TRACKS = 30
 STILL_FLOW_PX = 0.3
@@ -106,7 +107,7 @@ class ClassicalTracker:
         return motion
 
 
-class ClassicalStep:
+class ClassicalStep(NoWindow):
     """The baseline as a per-frame step: full-resolution frames, KLT tracks (undistorted), the tracker's
     motion; camera-height scale, or the ground-truth step lengths (labelled so) when ``gt_step_lengths_m``
     is given."""

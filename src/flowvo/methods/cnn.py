@@ -12,7 +12,7 @@ from flowvo.camera import Camera
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
 from flowvo.geometry import chain_planar, chain_se3, se3_from_targets
-from flowvo.methods.base import MIN_FLOW_SIDE_PX, WorkingFrames
+from flowvo.methods.base import MIN_FLOW_SIDE_PX, NoWindow, WorkingFrames
 from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.network import OdometryNet
 from flowvo.model.preprocess import Normalization, resize_flow
@@ -21,7 +21,7 @@ DEFAULT_NETWORK_FLOW_METHOD = "dis-medium"  # for checkpoints that do not record
 DEFAULT_NETWORK_INPUT_HW = (188, 620)  # for checkpoints that do not record theirs: KITTI at half size
 
 
-class CnnStep(WorkingFrames):
+class CnnStep(NoWindow, WorkingFrames):
     """The network regresses the motion from the flow of undistorted working frames."""
 
     motion_stage = "network"

@@ -1,5 +1,5 @@
-"""``flowvo`` (the default) and ``flowvo-geometry``: geometry where geometry is strong, the network where
-it is not.
+"""``flowvo`` (the default), ``flowvo-geometry`` and ``flowvo-pair``: geometry where geometry is strong,
+the network where it is not.
 
 Rotation and translation direction come from an essential matrix fitted to textured points tracked over
 the whole frame (pyramidal Lucas-Kanade); the metric step length from the road plane, triangulated from
@@ -8,11 +8,17 @@ the dense DIS flow of the road ahead at the working resolution and the camera he
 the road and the scene move less than half a pixel. Where no trustworthy road plane has been seen for a
 while, the packaged network's distance stands in (``flowvo``; ``flowvo-geometry`` has no network). Lens
 distortion is removed from the tracked and road points, not from whole frames. No ground truth enters it.
+
+``flowvo`` and ``flowvo-geometry`` refine the step lengths in a window stage (:mod:`flowvo.scale_window`):
+each step also measures the ratio of its length to the last one from points tracked over three frames
+(:mod:`flowvo.scale_propagation`), and the window fuses road, ratios and network over about two seconds,
+emitting each motion a fixed number of frames late. ``flowvo-pair`` is the per-pair estimate alone (the
+speed prior's length, no latency), kept for comparison.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -31,8 +37,18 @@ from flowvo.road_scale import (
     road_room,
     trusted_road_plane,
 )
+from flowvo.scale_propagation import MIN_PARALLAX_PX, step_length_ratio
+from flowvo.scale_window import ScaleWindow, StepScale
 from flowvo.speed_prior import SpeedPrior
-from flowvo.two_view import essential_motion, follow_flow, se3_next_prev, textured_points, track_points
+from flowvo.two_view import (
+    EssentialMotion,
+    essential_motion,
+    follow_flow,
+    lucas_kanade,
+    se3_next_prev,
+    textured_points,
+    track_points,
+)
 
 DEFAULT_ROAD_FLOW_METHOD = "dis-medium-fine"  # DIS down to the working resolution: the presets' road flow
 # (one pyramid level short) made every step 3-6 % short on real KITTI
@@ -47,19 +63,24 @@ KEY_ROAD_PX = 6.0  # at the reference width: a step whose road moved less keeps 
 # scale is measured over a longer baseline (half of PREDICT_ROAD_ABOVE_PX: two such steps stay within DIS's reach;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
+CONTINUE_EVERY = 3  # every third tracked point is followed into the next frame too (three-view ratios): as
+# precise as all of them on the real clips, and cheap enough for the reader thread
 ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (LK tracks are sub-pixel)
 
 
 @dataclass(frozen=True)
 class GeometryFrame:
-    """A working frame of the default method with its textured points and the tracks of the previous
-    frame's textured points into it (computed once per frame, in order, in the reader thread; empty for
-    the first frame); pixels of the (distorted) working frame."""
+    """A working frame of the default method with its textured points, the tracks of the previous frame's
+    textured points into it, and ``continued_next``: where the previous frame's tracks (its
+    ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per frame, in order,
+    in the reader thread; empty for the first frame); pixels of the (distorted) working frame."""
 
     image: np.ndarray
     textured_px: np.ndarray
     tracked_prev: np.ndarray
     tracked_next: np.ndarray
+    continued_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    continued_next: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
 
 
 @dataclass(frozen=True)
@@ -89,10 +110,13 @@ class FlowGeometryStep(WorkingFrames):
 
     def __init__(self, camera: Camera, image_size_hw: tuple[int, int],
                  flow_method: str = DEFAULT_ROAD_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
-                 fallback: CnnStep | None = None) -> None:
+                 fallback: CnnStep | None = None, window: ScaleWindow | None = None) -> None:
         super().__init__(camera, image_size_hw, working_width)
-        name = "flowvo" if fallback else "flowvo-geometry"
-        self.label = f"{name} ({flow_method} road flow, geometry" + (", network fallback)" if fallback else ")")
+        name = ("flowvo" if fallback else "flowvo-geometry") if window else "flowvo-pair"
+        self.label = (f"{name} ({flow_method} road flow, geometry" + (", network fallback" if fallback else "")
+                      + (f", {window.latency_frames}-frame scale window)" if window else ", per pair)"))
+        self.window = window
+        self.latency_frames = window.latency_frames if window else 0
         if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
         self.fallback = fallback
@@ -120,6 +144,9 @@ class FlowGeometryStep(WorkingFrames):
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.speed = SpeedPrior()
         self.last_motion = np.eye(4)
+        self._last_fit: EssentialMotion | None = None  # the last moving step's motion (three-view ratios)
+        self._step_scale: StepScale | None = None  # the last step, for the window stage
+        self.min_parallax_px = MIN_PARALLAX_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self._previous: GeometryFrame | None = None
         self.predict_above_px = PREDICT_ROAD_ABOVE_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self._road_prediction: np.ndarray | None = None  # road homography previous -> current, predicted
@@ -138,10 +165,18 @@ class FlowGeometryStep(WorkingFrames):
         """The working frame, its textured points and the tracks from the previous frame (tracking here
         balances the reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07)."""
         working = super().prepare(image)
-        tracked = (np.zeros((0, 2), np.float32),) * 2
-        if self._previous is not None:
-            tracked = track_points(self._previous.image, working, self._previous.textured_px)
-        self._previous = GeometryFrame(working, textured_points(working), *tracked)
+        previous = self._previous
+        if previous is None:
+            self._previous = GeometryFrame(working, textured_points(working), *(np.zeros((0, 2), np.float32),) * 2)
+            return self._previous
+        continued_rows = np.arange(0, len(previous.tracked_next), CONTINUE_EVERY) if self.window else \
+            np.zeros(0, np.int64)
+        count = len(previous.textured_px)
+        start = np.concatenate([previous.textured_px, previous.tracked_next[continued_rows]])
+        moved, found = lucas_kanade(previous.image, working, start)  # one call: each point is tracked alone
+        self._previous = GeometryFrame(working, textured_points(working), start[:count][found[:count]],
+                                       moved[:count][found[:count]], continued_rows[found[count:]],
+                                       moved[count:][found[count:]])
         return self._previous
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
@@ -186,8 +221,10 @@ class FlowGeometryStep(WorkingFrames):
         return _transform(self._undistort(moved), prediction)
 
     def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
-        """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds."""
+        """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds: the per-pair estimate
+        (the window stage, :meth:`refine`, may change its length)."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
+        last_fit, self._last_fit, self._step_scale = self._last_fit, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
         road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1)))
         key_is_previous = flow.key_prev is None
@@ -202,6 +239,10 @@ class FlowGeometryStep(WorkingFrames):
             return self.last_motion
         fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)
         if fit is None:  # degenerate: keep the last motion (constant velocity)
+            T_next_prev = invert_se3(self.last_motion)
+            length_m = float(np.linalg.norm(T_next_prev[:3, 3]))
+            self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
+                                         dt_s)
             return self.last_motion
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
@@ -216,18 +257,51 @@ class FlowGeometryStep(WorkingFrames):
             road_px = self.road_px_undistorted
             if np.median(np.linalg.norm(_transform(road_px, prediction) - road_px, axis=1)) > self.predict_above_px:
                 self._road_prediction = prediction
+        road_m, network_m = step_m, None
         if step_m is not None:
             self.fallback_policy.road_seen(time_s)
         elif self.fallback is not None and self.fallback_policy.network_needed(time_s):
-            step_m = self.fallback.distance_m(previous.image, flow.current.image)  # the speed prior alone would drift
+            step_m = network_m = self.fallback.distance_m(previous.image, flow.current.image)  # the speed prior
+            # alone would drift
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
+        if self.window is not None:
+            plausible = road_m is not None and road_m <= self.speed.max_speed_mps * dt_s
+            ratio = None if last_fit is None else self._length_ratio(previous, flow.current, last_fit, fit)
+            self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
+                                         ratio)
+            self._last_fit = fit
         return self.last_motion
 
+    def _length_ratio(self, previous: GeometryFrame, current: GeometryFrame, last_fit: EssentialMotion,
+                      fit: EssentialMotion) -> float | None:
+        """This step's length over the last one's (:mod:`flowvo.scale_propagation`), from the last step's
+        inlier tracks that went on into ``current``."""
+        inlier = last_fit.inliers[current.continued_rows]  # the last fit's rows are previous.tracked_next's
+        rows, after = current.continued_rows[inlier], current.continued_next[inlier]
+        at = self._undistort(previous.tracked_next[rows])
+        return step_length_ratio((self._undistort(previous.tracked_prev[rows]), at), last_fit,
+                                 (at, self._undistort(after)), fit, self.K, self.min_parallax_px)
+
+    def refine(self, time_s: float, motion: np.ndarray) -> list[tuple[float, np.ndarray]]:
+        """The window stage: the step just estimated by :meth:`motion` (ending at ``time_s``) goes into the
+        scale window; the motions now final come back, ``latency_frames`` late (per pair: at once)."""
+        if self.window is None:
+            return [(time_s, motion)]
+        return self.window.push(time_s, self._step_scale)
+
+    def flush(self) -> list[tuple[float, np.ndarray]]:
+        """The motions still in the window at the end of the drive."""
+        return [] if self.window is None else self.window.flush()
+
     def summary(self) -> dict:
-        """How many steps took the network's distance (no trustworthy road plane for a while)."""
-        return {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
+        """How many steps took the network's distance (no trustworthy road plane for a while), and the
+        window's latency (frames: how late each motion is final)."""
+        kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
+        if self.window is not None:
+            kept["scale_window"] = {"latency_frames": self.window.latency_frames, "window_s": self.window.window_s}
+        return kept
 
 
 def _transform(points_px: np.ndarray, homography: np.ndarray) -> np.ndarray:

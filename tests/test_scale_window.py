@@ -1,0 +1,152 @@
+"""The window stage's maths on exact cases: three-view length ratios, the joint solve of a window's step
+lengths (noise-free measurements give the true motions back; gross outliers are down-weighted), and its
+latency, standstill and gap rules."""
+
+import numpy as np
+import pytest
+
+from flowvo.geometry import invert_se3, so3_exp
+from flowvo.scale_propagation import step_length_ratio
+from flowvo.scale_window import ROAD_SIGMA, ScaleWindow, StepScale, robust_log_lengths
+from flowvo.two_view import EssentialMotion, se3_next_prev
+
+K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])
+
+
+def project(points):
+    pixels = points @ K.T
+    return pixels[:, :2] / pixels[:, 2:]
+
+
+def step(yaw_rad, length_m):
+    """A forward step while turning: (R_next_prev, unit t, T_next_prev)."""
+    R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
+    t = -R @ np.array([0.02, 0.0, 1.0]) / np.linalg.norm([0.02, 0.0, 1.0])
+    return R, t, se3_next_prev(R, t * length_m)
+
+
+def test_three_views_give_the_exact_ratio_of_the_step_lengths():
+    rng = np.random.default_rng(3)
+    scene_a = np.c_[rng.uniform(-10, 10, 200), rng.uniform(-3, 1.5, 200), rng.uniform(6, 40, 200)]
+    R1, t1, T_ba = step(0.02, 0.8)
+    R2, t2, T_cb = step(-0.03, 1.1)
+    to_b = scene_a @ T_ba[:3, :3].T + T_ba[:3, 3]
+    to_c = to_b @ T_cb[:3, :3].T + T_cb[:3, 3]
+    a, b, c = project(scene_a), project(to_b), project(to_c)
+    everyone = np.ones(200, bool)
+    ratio = step_length_ratio((a, b), EssentialMotion(R1, t1, everyone), (b, c), EssentialMotion(R2, t2, everyone), K)
+    assert ratio == pytest.approx(1.1 / 0.8, rel=1e-9)
+
+
+def test_three_views_without_parallax_give_no_ratio():
+    rng = np.random.default_rng(3)
+    far = np.c_[rng.uniform(-10, 10, 100), rng.uniform(-3, 1.5, 100), np.full(100, 1e5)]  # no depth to see
+    R, t, T = step(0.0, 1.0)
+    a, b = project(far), project(far @ T[:3, :3].T + T[:3, 3])
+    motion = EssentialMotion(R, t, np.ones(100, bool))
+    assert step_length_ratio((a, b), motion, (b, b), motion, K) is None
+
+
+def drive(lengths_m, road_every=1, yaw_rad=0.01):
+    """StepScale of each step of a drive with exact ratios, and road lengths on every ``road_every``-th
+    step; with the true motions T_prev_cur."""
+    steps, truths = [], []
+    for k, length in enumerate(lengths_m):
+        R, t, T_next_prev = step(yaw_rad, length)
+        ratio = None if k == 0 else length / lengths_m[k - 1]
+        road = length if k % road_every == 0 else None
+        steps.append(StepScale(R, t, pair_m=length, dt_s=0.1, road_m=road, ratio=ratio))
+        truths.append(invert_se3(T_next_prev))
+    return steps, truths
+
+
+def run_window(steps, window=None):
+    window = window or ScaleWindow()
+    emitted = []
+    for k, s in enumerate(steps):
+        emitted += window.push(0.1 * (k + 1), s)
+    return emitted + window.flush()
+
+
+def test_noise_free_measurements_give_the_true_motions_back():
+    lengths = np.linspace(0.3, 1.4, 40) ** 1.5  # accelerating from 0.16 to 1.66 m a step
+    steps, truths = drive(lengths, road_every=4)  # the road on every fourth step only: ratios carry the rest
+    emitted = run_window(steps)
+    assert [t for t, _ in emitted] == pytest.approx([0.1 * (k + 1) for k in range(40)])
+    for (_, motion), truth in zip(emitted, truths, strict=True):
+        np.testing.assert_allclose(motion, truth, atol=1e-6)
+
+
+def test_gross_road_outliers_are_down_weighted():
+    lengths = np.full(40, 1.0)
+    steps, _ = drive(lengths)
+    for k in (10, 11, 25):  # a road reading 60 % long, twice in a row, and one 40 % short
+        steps[k] = StepScale(steps[k].R, steps[k].t_dir, 1.0, 0.1, road_m=0.6 if k == 25 else 1.6,
+                             ratio=steps[k].ratio)
+    robust = np.array([np.linalg.norm(m[:3, 3]) for _, m in run_window(steps)])
+    links = [(k, 0.0, 0.01) for k in range(1, 20)]
+    roads = [(k, float(np.log(1.6 if k in (10, 11) else 1.0)), ROAD_SIGMA) for k in range(20)]
+    plain = np.exp(np.linalg.lstsq(*_normal_system(links, roads, 20), rcond=None)[0])
+    assert np.abs(robust - 1.0).max() < 0.008  # Cauchy: a 9-sigma outlier keeps 5 % of its weight
+    assert np.abs(plain - 1.0).max() > 0.04  # least squares: the two outliers move every step by 5 %
+
+
+def _normal_system(links, absolutes, count):
+    A, b = [], []
+    for k, value, sigma in links:
+        row = np.zeros(count)
+        row[k], row[k - 1] = 1.0 / sigma, -1.0 / sigma
+        A.append(row)
+        b.append(value / sigma)
+    for k, value, sigma in absolutes:
+        row = np.zeros(count)
+        row[k] = 1.0 / sigma
+        A.append(row)
+        b.append(value / sigma)
+    return np.array(A), np.array(b)
+
+
+def test_robust_solve_of_consistent_measurements_is_exact():
+    truth = np.log(np.array([0.5, 0.6, 0.8, 0.7, 0.9]))
+    links = [(k, truth[k] - truth[k - 1], 0.01) for k in range(1, 5)]
+    np.testing.assert_allclose(robust_log_lengths(links, [(2, truth[2], 0.05)], 5), truth, atol=1e-12)
+
+
+def test_each_motion_is_final_latency_frames_late_and_a_standstill_flushes():
+    steps, _ = drive(np.full(12, 1.0))
+    window = ScaleWindow(latency_frames=3)
+    counts = [len(window.push(0.1 * (k + 1), s)) for k, s in enumerate(steps[:6])]
+    assert counts == [0, 0, 0, 1, 1, 1]
+    stopped = window.push(0.7, None)  # a standstill: the three pending motions, then the identity
+    assert [t for t, _ in stopped] == pytest.approx([0.4, 0.5, 0.6, 0.7])
+    np.testing.assert_array_equal(stopped[-1][1], np.eye(4))
+    assert [len(window.push(0.8 + 0.1 * k, s)) for k, s in enumerate(steps[6:])] == [0, 0, 0, 1, 1, 1]
+    assert len(window.flush()) == 3
+
+
+def test_a_long_gap_without_a_ratio_breaks_the_link():
+    """Steps after an hour's gap keep their own road length, not the speed before it."""
+    before, _ = drive(np.full(10, 1.0))
+    after, _ = drive(np.full(10, 0.2))
+    gap = after[0]
+    after[0] = StepScale(gap.R, gap.t_dir, gap.pair_m, 3600.0, road_m=0.2, ratio=None)
+    lengths = [np.linalg.norm(m[:3, 3]) for _, m in run_window(before + after)]
+    np.testing.assert_allclose(lengths, [1.0] * 10 + [0.2] * 10, rtol=1e-9)
+
+
+def test_the_robust_solve_is_the_minimum_scipy_finds_under_the_cauchy_loss():
+    """Cross-check against a well-kept solver: scipy's least_squares with the Cauchy loss, started where
+    the iterations end, stays there (the iterations reached a minimum of the same cost)."""
+    from scipy.optimize import least_squares
+
+    rng = np.random.default_rng(7)
+    truth = np.cumsum(rng.normal(0.0, 0.02, 25))
+    links = [(k, truth[k] - truth[k - 1] + rng.normal(0.0, 0.01), 0.01) for k in range(1, 25)]
+    absolutes = [(k, truth[k] + rng.normal(0.0, 0.05) + (0.5 if k in (4, 17) else 0.0), 0.05) for k in range(25)]
+    solved = robust_log_lengths(links, absolutes, 25)
+    A, b = _normal_system(links, absolutes, 25)
+    reference = least_squares(lambda x: A @ x - b, solved, loss="cauchy", f_scale=2.0, xtol=1e-14, ftol=1e-14,
+                              gtol=1e-14).x
+    np.testing.assert_allclose(solved, reference, atol=1e-6)
+    clean = [(k, value - (0.5 if k in (4, 17) else 0.0), sigma) for k, value, sigma in absolutes]
+    np.testing.assert_allclose(solved, robust_log_lengths(links, clean, 25), atol=0.01)  # the outliers left out
