@@ -1,7 +1,7 @@
 """How much the default method's accuracy on the real clips depends on the working width: t_err of each clip
 at working widths 600..640 px in steps of 4, and each clip's worst t_err over its best.
 
-Usage: python scripts/working_width_spread.py [CLIPS_ROOT]
+Usage: python scripts/working_width_spread.py [CLIPS_ROOT] [--per-pair]   (--per-pair: flowvo-pair's estimate)
 """
 
 from __future__ import annotations
@@ -13,17 +13,19 @@ from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 from flowvo.drive import RunOptions, open_drive
 from flowvo.evaluation import evaluate
 from flowvo.methods.flowvo import FlowGeometryStep
+from flowvo.scale_window import ScaleWindow
 from flowvo.stream import stream_odometry
 from flowvo.trajectory import Trajectory
 
 WIDTHS_PX = tuple(range(600, 641, 4))
 
 
-def t_err_percent(clips: str, clip: str, width_px: int) -> float:
+def t_err_percent(clips: str, clip: str, width_px: int, per_pair: bool) -> float:
     """flowvo-geometry's t_err on ``clip`` at working width ``width_px`` (the network fallback is trained at
-    620 px only)."""
+    620 px only); ``per_pair``: without the scale window."""
     drive = open_drive(RunOptions(out="", data=clips, sequence=clip))
-    step = FlowGeometryStep(drive.camera, drive.source.image_size_hw, working_width=width_px)
+    step = FlowGeometryStep(drive.camera, drive.source.image_size_hw, working_width=width_px,
+                            window=None if per_pair else ScaleWindow())
     result = stream_odometry(drive.source.frames(), step, drive.source.frame_count)
     lengths = tuple(float(m) for m in CLIPS[clip])
     evaluation = evaluate(drive.source.ground_truth, Trajectory.from_poses(result.T_world_cam), lengths_m=lengths)
@@ -33,14 +35,15 @@ def t_err_percent(clips: str, clip: str, width_px: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("clips", nargs="?", default=str(DEFAULT_CLIPS_ROOT))
+    parser.add_argument("--per-pair", action="store_true", help="the per-pair estimate (no scale window)")
     args = parser.parse_args()
     print("| clip | " + " | ".join(f"{w} px" for w in WIDTHS_PX) + " | worst / best |")
     print("| --- |" + " --- |" * (len(WIDTHS_PX) + 1))
     for clip in CLIPS:
-        errors = [t_err_percent(args.clips, clip, width) for width in WIDTHS_PX]
+        errors = [t_err_percent(args.clips, clip, width, args.per_pair) for width in WIDTHS_PX]
         print(f"| {clip} | " + " | ".join(f"{e:.2f}" for e in errors) + f" | {max(errors) / min(errors):.2f}x |")
-    print("t_err % of flowvo-geometry (the network fallback is trained at 620 px only); 01: 100 m sub-paths, "
-          "06/07: 10-50 m")
+    print(f"t_err % of flowvo-geometry{' per pair' if args.per_pair else ''} (the network fallback is trained at "
+          "620 px only); 01: 100 m sub-paths, 06/07: 10-50 m")
 
 
 if __name__ == "__main__":

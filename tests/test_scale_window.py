@@ -124,6 +124,15 @@ def test_each_motion_is_final_latency_frames_late_and_a_standstill_flushes():
     assert len(window.flush()) == 3
 
 
+def test_without_latency_every_motion_comes_back_at_once():
+    steps, truths = drive(np.array([0.5, 0.6, 0.7]))
+    window = ScaleWindow(latency_frames=0)
+    for k, (s, truth) in enumerate(zip(steps, truths, strict=True)):
+        (time_s, motion), = window.push(0.1 * (k + 1), s)
+        np.testing.assert_allclose(motion, truth, atol=1e-9)
+    assert window.flush() == []
+
+
 def test_a_long_gap_without_a_ratio_breaks_the_link():
     """Steps after an hour's gap keep their own road length, not the speed before it."""
     before, _ = drive(np.full(10, 1.0))

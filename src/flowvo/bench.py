@@ -71,7 +71,7 @@ def decode_frames_per_second(options: RunOptions, frames: int, repeat: int) -> f
 
 def format_bench_table(rows: list[dict], decode_fps: float | None = None) -> str:
     """The timing table with speed-ups over the reference system."""
-    names = ("read", "flow", "network", "geometry", "chain", "total")
+    names = ("read", "flow", "network", "geometry", "window", "chain", "total")
     header = f"{'method':62s} " + " ".join(f"{n:>8s}" for n in names) + f" {'fps':>7s} {'vs ref':>7s}"
     lines = [header, "-" * len(header)]
     for row in rows:

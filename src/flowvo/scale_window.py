@@ -83,6 +83,8 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
                      + np.bincount(absolute_k, w_absolute, count))
         rhs = (np.bincount(link_k, w_link * link_value, count) - np.bincount(link_k - 1, w_link * link_value, count)
                + np.bincount(absolute_k, w_absolute * absolute_value, count))
+        if count == 1:  # LAPACK's tridiagonal solver wants two rows at least
+            return rhs / banded[1]
         return solveh_banded(banded, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False)
 
     def normalised(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -111,9 +113,10 @@ class ScaleWindow:
     """The sliding window (see the module docstring): ``push`` a step, get back the motions that are
     final; ``flush`` at the end of the drive."""
 
-    def __init__(self, latency_frames: int = LATENCY_FRAMES, window_s: float = WINDOW_S) -> None:
+    def __init__(self, latency_frames: int = LATENCY_FRAMES, window_s: float = WINDOW_S, ratios: bool = True) -> None:
         self.latency_frames = latency_frames
         self.window_s = window_s
+        self.ratios = ratios  # False: the road lengths alone, averaged (for the ablation)
         self._steps: deque[tuple[float, StepScale]] = deque()  # the window: emitted steps, then pending ones
         self._pending = 0
 
@@ -155,7 +158,7 @@ class ScaleWindow:
         the others keep their per-pair length)."""
         links, absolutes = [], []
         for k, (_, step) in enumerate(self._steps):
-            if k and step.ratio is not None and step.ratio > 0:
+            if k and self.ratios and step.ratio is not None and step.ratio > 0:
                 links.append((k, float(np.log(step.ratio)), RATIO_SIGMA))
             elif k and step.dt_s <= SPEED_HORIZON_S:
                 links.append((k, 0.0, UNLINKED_SIGMA))
