@@ -10,6 +10,7 @@ from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
 from flowvo.road_scale import NetworkFallbackPolicy, road_homography
+from flowvo.scale_window import ScaleWindow
 from flowvo.speed_prior import SpeedPrior
 from flowvo.two_view import EssentialMotion
 
@@ -87,6 +88,29 @@ def test_a_slowly_moving_road_keeps_its_key_frame_and_scales_the_step_by_time():
     fast = step_flow(step, 1.0)
     step.motion((0.1, 0.2), previous, fast)
     assert step._road_key is None  # the road moved enough: the next step starts from this frame
+
+
+def test_the_window_measures_each_step_against_the_last_through_the_continued_tracks():
+    """Three frames a, b, c of exact tracks: the step b -> c gets its road length and, from the tracks of
+    a -> b that went on into c (rows of b's tracks), the ratio of its length to a -> b's."""
+    step = FlowGeometryStep(CAMERA, HW, window=ScaleWindow())
+    rng = np.random.default_rng(5)
+    scene_a = np.c_[rng.uniform(-15, 15, 300), rng.uniform(-5, 1.0, 300), rng.uniform(8, 50, 300)]
+    moves = [(0.01, 0.8), (-0.02, 1.1)]  # (yaw rad, metres) of a -> b and b -> c
+    scenes = [scene_a]
+    for yaw, length in moves:
+        R = so3_exp(np.array([0.0, yaw, 0.0]))
+        scenes.append(scenes[-1] @ R.T - R @ np.array([0.0, 0.0, length]))
+    a, b, c = (project(step.K, scene) for scene in scenes)
+    rows = np.arange(0, 300, 6)
+    frame_b = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, a, b)
+    frame_c = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, b, c, rows, c[rows])
+    road_ab, road_bc = step_flow(step, 0.8, 0.01), step_flow(step, 1.1, -0.02)
+    step.motion((0.0, 0.1), None, GeometryFlow(a, b, road_ab.road_prev, road_ab.road_next, frame_b))
+    assert step._step_scale.ratio is None and step._step_scale.road_m == pytest.approx(0.8, rel=1e-4)
+    step.motion((0.1, 0.2), frame_b, GeometryFlow(b, c, road_bc.road_prev, road_bc.road_next, frame_c))
+    assert step._step_scale.ratio == pytest.approx(1.1 / 0.8, rel=1e-6)
+    assert step._step_scale.road_m == pytest.approx(1.1, rel=1e-4)
 
 
 def test_network_fallback_policy_counts_only_after_its_horizon():

@@ -97,3 +97,20 @@ def test_bad_mcap_frame_ids_are_refused_before_the_run(drive, tmp_path, capsys):
                  "--frame-id", "/odom"]) == 2
     assert "frame id '/odom'" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_the_latency_is_chosen_and_recorded_and_refused_where_there_is_no_window(drive, tmp_path, capsys):
+    root, _, frames, runs, kitti_poses = drive
+    assert json.loads((runs / "kitti" / "run.json").read_text())["latency_frames"] == 5  # the default's
+    at_once = tmp_path / "at_once"
+    assert main(["-q", "run", "--data", str(root), "--sequence", "00", "--latency", "0", "--out", str(at_once)]) == 0
+    summary = json.loads((at_once / "run.json").read_text())
+    assert summary["latency_frames"] == 0 and summary["scale_window"]["latency_frames"] == 0
+    poses = np.loadtxt(at_once / "00.txt")
+    assert poses.shape == kitti_poses.shape and not np.allclose(poses, kitti_poses)  # the window saw less
+    capsys.readouterr()
+    assert main(["run", "--data", str(root), "--sequence", "00", "--method", "cnn", "--latency", "3",
+                 "--out", str(tmp_path / "cnn")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--latency applies to the windowed methods" in err[0]
+    assert not (tmp_path / "cnn").exists()

@@ -18,6 +18,7 @@ import numpy as np
 from flowvo.atomic import write_text_atomic
 from flowvo.drive import RunOptions, make_step, open_drive
 from flowvo.errors import FlowvoError
+from flowvo.methods import METHODS
 from flowvo.reference_system import REFERENCE_SECONDS_PER_FRAME
 from flowvo.stages import STAGES, stage_seconds_text
 from flowvo.stream import stream_odometry, timing_report
@@ -31,7 +32,8 @@ def benchmark(options: RunOptions, methods: list[str], frames: int, repeat: int)
         raise FlowvoError(f"--repeat must be at least 1, got {repeat}")
     rows = []
     for method in methods:
-        method_options = dataclasses.replace(options, method=method)
+        latency = options.latency_frames if METHODS[method].windowed else None  # --latency: the windowed rows
+        method_options = dataclasses.replace(options, method=method, latency_frames=latency)
         reports, label, used = [], "", 0
         for _ in range(repeat):
             drive = open_drive(method_options)

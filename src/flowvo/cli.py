@@ -20,6 +20,7 @@ from flowvo.flow.registry import available_methods as available_flow_methods
 from flowvo.methods import DEFAULT_METHOD, METHODS, methods_help
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M as DEVKIT_LENGTHS_M
 from flowvo.progress import set_progress_enabled
+from flowvo.scale_window import LATENCY_FRAMES, MAX_LATENCY_FRAMES
 
 if TYPE_CHECKING:
     from flowvo.drive import RunOptions
@@ -298,6 +299,9 @@ def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None =
     if methods_default is not None:
         p.add_argument("--method", choices=list(METHODS), default=methods_default, help=methods_help())
     p.add_argument("--model", help="network checkpoint for cnn and flowvo's fallback (default: the packaged model)")
+    p.add_argument("--latency", type=_bounded(int, 0, MAX_LATENCY_FRAMES), metavar="FRAMES",
+                   help=f"flowvo, flowvo-geometry: each pose is final this many frames late (default "
+                        f"{LATENCY_FRAMES}; 0: at once, less accurate: docs/results.md)")
     p.add_argument("--flow-method", choices=available_flow_methods(),
                    help="flow method (flowvo: of the road crop, default dis-medium-fine; cnn: default the model's)")
 
@@ -311,6 +315,7 @@ def _run_options(args: argparse.Namespace, out: str) -> RunOptions:
                       camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
                       fy=args.fy, cx=args.cx, cy=args.cy, distortion=tuple(args.dist) if args.dist else None,
                       distortion_model=args.distortion_model, camera_height_m=args.camera_height,
+                      latency_frames=args.latency,
                       method=getattr(args, "method", DEFAULT_METHOD), model=args.model, flow_method=args.flow_method,
                       classical_scale=getattr(args, "scale_from", "height"),
                       max_frames=getattr(args, "max_frames", None))

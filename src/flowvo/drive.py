@@ -45,6 +45,7 @@ class RunOptions:
     distortion: tuple[float, ...] | None = None  # lens distortion coefficients (``distortion_model``'s order)
     distortion_model: str | None = None  # plumb_bob (default for --dist), rational_polynomial, equidistant
     camera_height_m: float | None = None  # above the road; None: the calibration's, else KITTI's 1.65 m
+    latency_frames: int | None = None  # the scale window's latency (frames; None: its default); windowed methods
     method: str = DEFAULT_METHOD
     model: str | None = None
     flow_method: str | None = None

@@ -32,6 +32,7 @@ WINDOW_S = 2.0  # the steps solved together: 20 at 10 frames/s (real clips: 15-6
 MIN_WINDOW_STEPS = 10
 LATENCY_FRAMES = 5  # real clips, t_err at latency 0 / 3 / 5: 01 1.24 / 1.26 / 1.26, 06 1.35 / 1.45 / 1.45,
 # 07 2.27 / 1.99 / 1.87 %: a step starting from rest is only measured well once the car moves
+MAX_LATENCY_FRAMES = 100  # the window holds its pending steps: longer latencies are no odometry any more
 RATIO_SIGMA = 0.01  # log: the three-view ratio's spread on the real clips (inter-quartile about +-0.5 %)
 ROAD_SIGMA = 0.05  # log: the road length's spread at constant speed (real clip 06)
 NETWORK_SIGMA = 0.4  # log: the network's distance, biased on real frames (+45 % through a turn of clip 07)

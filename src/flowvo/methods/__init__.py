@@ -30,6 +30,11 @@ class Method:
     stages: tuple[str, ...]
     build: Callable[[RunOptions, FrameSource, Camera], OdometryStep]
 
+    @property
+    def windowed(self) -> bool:
+        """True for a method with a scale window (``--latency`` applies)."""
+        return "window" in self.stages
+
 
 def _flowvo(with_network: bool, with_window: bool) -> Callable[..., Any]:
     def build(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
@@ -37,22 +42,35 @@ def _flowvo(with_network: bool, with_window: bool) -> Callable[..., Any]:
         from flowvo.methods.flowvo import DEFAULT_ROAD_FLOW_METHOD, FlowGeometryStep
         from flowvo.scale_window import ScaleWindow
 
+        if not with_window:
+            _no_latency(options)
         fallback = load_cnn_step(camera, source.image_size_hw, options.model) if with_network else None
+        window = None
+        if with_window:
+            window = ScaleWindow() if options.latency_frames is None else ScaleWindow(options.latency_frames)
         return FlowGeometryStep(camera, source.image_size_hw, flow_method=options.flow_method or
-                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback,
-                                window=ScaleWindow() if with_window else None)
+                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback, window=window)
     return build
+
+
+def _no_latency(options: RunOptions) -> None:
+    """Refuse ``--latency`` for a method without a scale window (its poses are final at once)."""
+    if options.latency_frames:
+        raise FlowvoError(f"--latency applies to the windowed methods (flowvo, flowvo-geometry); {options.method} "
+                          "gives every pose at once")
 
 
 def _cnn(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
     from flowvo.methods.cnn import load_cnn_step
 
+    _no_latency(options)
     return load_cnn_step(camera, source.image_size_hw, options.model, options.flow_method)
 
 
 def _classical(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
     from flowvo.methods.classical import ClassicalStep
 
+    _no_latency(options)
     steps = None
     if options.classical_scale == "gt":
         if source.ground_truth is None:
