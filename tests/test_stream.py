@@ -58,7 +58,7 @@ class LateStep(CountingStep):
         super().__init__()
         self.held: list = []
 
-    def refine(self, time_s, motion):
+    def refine(self, time_s, motion, measured):
         doubled = motion.copy()
         doubled[0, 3] *= 2
         self.held.append((time_s, doubled))

@@ -60,6 +60,7 @@ def drive_lengths(gt_positions: np.ndarray) -> tuple[float, ...]:
 def summary_lines(runs: list[dict]) -> list[str]:
     """One terminal line per run: method, t_err, r_err (or ATE for short drives), frames per second."""
     lines = []
+    width = max((len(summary["label"]) for summary in runs), default=0)
     for summary in runs:
         metrics = summary.get("metrics") or {}
         if metrics.get("t_err_percent") is not None:
@@ -68,5 +69,5 @@ def summary_lines(runs: list[dict]) -> list[str]:
             accuracy = f"ATE {metrics['ate_rmse_m']:.2f} m (path shorter than the sub-paths: no KITTI t_err)"
         else:
             accuracy = "no ground truth"
-        lines.append(f"{summary['label'][:62]:62s} {accuracy}  {summary['frames_per_second']:6.1f} frames/s")
+        lines.append(f"{summary['label']:{width}s} {accuracy}  {summary['frames_per_second']:6.1f} frames/s")
     return lines

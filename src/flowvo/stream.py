@@ -1,8 +1,8 @@
 """Stream a frame source through an odometry step as a three-stage pipeline: a reader thread decodes and
-prepares frames, a flow thread estimates the flow of each pair, and the caller's thread turns flows into
-motions in frame order and chains them. OpenCV and torch release the GIL, so on two cores the stages
-overlap; the poses are exactly those of running the stages one after another (which ``overlap=False``
-does, in the caller's thread).
+prepares frames, a motion thread estimates the flow and the motion of each pair, and the caller's thread
+runs the step's window stage and chains the final motions in frame order. OpenCV and torch release the
+GIL, so on two cores the stages overlap; the poses are exactly those of running the stages one after
+another (which ``overlap=False`` does, in the caller's thread).
 """
 
 from __future__ import annotations
@@ -117,34 +117,41 @@ def _read(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep,
 
 
 def _motions(prepared_frames: Iterable[tuple[float, Any, float]],
-             step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, dict[str, float]]]:
-    """Yield ``(time_s, motion from the previous frame (None for the first), seconds per stage)`` in frame
-    order, each motion once the step's window stage has made it final (``step.latency_frames`` late); the
-    seconds of frames whose motion is not final yet come with the next one yielded."""
+             step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, Any, dict[str, float]]]:
+    """Yield ``(time_s, motion from the previous frame (None for the first), what the window stage needs
+    of it, seconds per stage)``."""
     previous, previous_time_s = None, None
-    seconds = dict.fromkeys(("image_read", "flow", step.motion_stage, "window"), 0.0)
     for time_s, prepared, read_s in prepared_frames:
-        seconds["image_read"] += read_s
-        if previous is None:
-            yield time_s, None, seconds
-            seconds = dict.fromkeys(seconds, 0.0)
-        else:
+        seconds, motion, measured = {"image_read": read_s}, None, None
+        if previous is not None:
             start = time.perf_counter()
             flow = step.flow(previous, prepared)
             middle = time.perf_counter()
             motion = step.motion((previous_time_s, time_s), previous, flow)
-            end = time.perf_counter()
-            final = step.refine(time_s, motion)
-            seconds["flow"] += middle - start
-            seconds[step.motion_stage] += end - middle
-            seconds["window"] += time.perf_counter() - end
-            for final_time_s, final_motion in final:
-                yield final_time_s, final_motion, seconds
-                seconds = dict.fromkeys(seconds, 0.0)
+            measured = step.measured()
+            seconds.update({"flow": middle - start, step.motion_stage: time.perf_counter() - middle})
+        yield time_s, motion, measured, seconds
         previous, previous_time_s = prepared, time_s
+
+
+def _windowed(motions: Iterable[tuple[float, np.ndarray | None, Any, dict[str, float]]],
+              step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, dict[str, float]]]:
+    """The step's window stage over the motions (in the caller's thread): ``(time_s, final motion, seconds
+    per stage)`` in frame order, each motion ``step.latency_frames`` late; the seconds of frames whose
+    motion is not final yet come with the next one yielded."""
+    pending: dict[str, float] = {}
+    for time_s, motion, measured, seconds in motions:
+        for stage, value in seconds.items():
+            pending[stage] = pending.get(stage, 0.0) + value
+        start = time.perf_counter()
+        final = [(time_s, None)] if motion is None else step.refine(time_s, motion, measured)
+        pending["window"] = pending.get("window", 0.0) + time.perf_counter() - start
+        for final_time_s, final_motion in final:
+            yield final_time_s, final_motion, pending
+            pending = {}
     for final_time_s, final_motion in step.flush():
-        yield final_time_s, final_motion, seconds
-        seconds = dict.fromkeys(seconds, 0.0)
+        yield final_time_s, final_motion, pending
+        pending = {}
 
 
 def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep, total: int | None = None,
@@ -166,10 +173,11 @@ def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometrySt
         with threadpool_limits(limits=1, user_api="blas"):
             wall_start = time.perf_counter()
             if not overlap:
-                return _chain(_motions(_read(frames, step, max_frames), step), [], total, label, wall_start)
+                return _chain(_windowed(_motions(_read(frames, step, max_frames), step), step), [], total, label,
+                              wall_start)
             reader = _Stage(_read(frames, step, max_frames))
             motions = _Stage(_motions(reader, step))
-            return _chain(motions, [reader, motions], total, label, wall_start)
+            return _chain(_windowed(motions, step), [reader, motions], total, label, wall_start)
     finally:
         cv2.setNumThreads(opencv_threads)
 

@@ -6,9 +6,11 @@ current)`` estimates what moved between two working frames (stateless), and ``mo
 flow)`` turns that into the camera motion ``T_prev_cur`` (4x4: the current camera's pose in the previous
 camera's frame, metres), called once per step in frame order, so it may keep history (past flows for a
 stacked network, the speed prior). Every caller (run, bench, the demo; KITTI folders, video, bags)
-therefore runs exactly the same inference. ``refine(time_s, motion)``, right after ``motion``, is a
-window stage: it returns the motions that are final, ``latency_frames`` steps late (at once for the
-methods without a window, :class:`NoWindow`); ``flush()`` returns the rest at the end of the drive.
+therefore runs exactly the same inference. ``measured()``, called right after ``motion`` in the same
+thread, returns what the window stage needs of that step; ``refine(time_s, motion, measured)``, the
+window stage (a stream runs it in a thread of its own, in frame order), returns the motions that are
+final, ``latency_frames`` steps late (at once for the methods without a window, :class:`NoWindow`);
+``flush()`` returns the rest at the end of the drive.
 ``summary()`` reports what the method wants kept in run.json.
 """
 
@@ -40,7 +42,9 @@ class OdometryStep(Protocol):
 
     latency_frames: int  # how many steps late ``refine`` returns a motion
 
-    def refine(self, time_s: float, motion: np.ndarray) -> list[tuple[float, np.ndarray]]: ...
+    def measured(self) -> Any: ...
+
+    def refine(self, time_s: float, motion: np.ndarray, measured: Any) -> list[tuple[float, np.ndarray]]: ...
 
     def flush(self) -> list[tuple[float, np.ndarray]]: ...
 
@@ -52,7 +56,11 @@ class NoWindow:
 
     latency_frames = 0
 
-    def refine(self, time_s: float, motion: np.ndarray) -> list[tuple[float, np.ndarray]]:
+    def measured(self) -> None:
+        """Nothing: the window stage passes motions on."""
+        return None
+
+    def refine(self, time_s: float, motion: np.ndarray, measured: None) -> list[tuple[float, np.ndarray]]:
         """The motion of the step ending at ``time_s``, unchanged."""
         return [(time_s, motion)]
 

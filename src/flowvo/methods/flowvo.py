@@ -284,12 +284,18 @@ class FlowGeometryStep(WorkingFrames):
         return step_length_ratio((self._undistort(previous.tracked_prev[rows]), at), last_fit,
                                  (at, self._undistort(after)), fit, self.K, self.min_parallax_px)
 
-    def refine(self, time_s: float, motion: np.ndarray) -> list[tuple[float, np.ndarray]]:
-        """The window stage: the step just estimated by :meth:`motion` (ending at ``time_s``) goes into the
-        scale window; the motions now final come back, ``latency_frames`` late (per pair: at once)."""
+    def measured(self) -> StepScale | None:
+        """What the last :meth:`motion` measured of its step's length, for the window (None: a standstill)."""
+        return self._step_scale
+
+    def refine(self, time_s: float, motion: np.ndarray, measured: StepScale | None
+               ) -> list[tuple[float, np.ndarray]]:
+        """The window stage: the step ending at ``time_s`` (``motion`` and what :meth:`measured` gave for it)
+        goes into the scale window; the motions now final come back, ``latency_frames`` late (per pair: at
+        once)."""
         if self.window is None:
             return [(time_s, motion)]
-        return self.window.push(time_s, self._step_scale)
+        return self.window.push(time_s, measured)
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
         """The motions still in the window at the end of the drive."""
