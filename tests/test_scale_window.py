@@ -133,6 +133,14 @@ def test_without_latency_every_motion_comes_back_at_once():
     assert window.flush() == []
 
 
+def test_measurements_that_are_not_positive_finite_lengths_are_ignored():
+    steps, truths = drive(np.full(8, 0.9))
+    broken = [StepScale(s.R, s.t_dir, s.pair_m, s.dt_s, road_m=bad, network_m=bad, ratio=s.ratio)
+              for s, bad in zip(steps, [None, np.inf, np.nan, -1.0, 0.0, 0.9, np.inf, 0.9], strict=True)]
+    for (_, motion), truth in zip(run_window(broken), truths, strict=True):
+        np.testing.assert_allclose(motion, truth, atol=1e-6)
+
+
 def test_a_long_gap_without_a_ratio_breaks_the_link():
     """Steps after an hour's gap keep their own road length, not the speed before it."""
     before, _ = drive(np.full(10, 1.0))

@@ -159,15 +159,21 @@ class ScaleWindow:
         the others keep their per-pair length)."""
         links, absolutes = [], []
         for k, (_, step) in enumerate(self._steps):
-            if k and self.ratios and step.ratio is not None and step.ratio > 0:
+            if k and self.ratios and _usable(step.ratio):
                 links.append((k, float(np.log(step.ratio)), RATIO_SIGMA))
             elif k and step.dt_s <= SPEED_HORIZON_S:
                 links.append((k, 0.0, UNLINKED_SIGMA))
             for value, sigma in ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA),
                                  (step.pair_m, PAIR_SIGMA)):
-                if value is not None and value > 0:
+                if _usable(value):
                     absolutes.append((k, float(np.log(value)), sigma))
         count = len(self._steps)
-        segment = np.cumsum([k == 0 or not any(link[0] == k for link in links) for k in range(count)])
+        linked = {k for k, _, _ in links}
+        segment = np.cumsum([k not in linked for k in range(count)])  # runs of steps tied to one another
         anchored = np.isin(segment, segment[[k for k, _, _ in absolutes]])
         return robust_log_lengths(links, absolutes, count), anchored
+
+
+def _usable(value: float | None) -> bool:
+    """A measured length or ratio the solve can take: given, positive and finite."""
+    return value is not None and 0.0 < value < np.inf
