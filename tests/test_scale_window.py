@@ -141,6 +141,15 @@ def test_measurements_that_are_not_positive_finite_lengths_are_ignored():
         np.testing.assert_allclose(motion, truth, atol=1e-6)
 
 
+def test_steps_without_a_ratio_keep_the_speed_across_a_dropped_frame():
+    steps, _ = drive(np.full(12, 1.0))
+    steps = [StepScale(s.R, s.t_dir, 0.0, s.dt_s, road_m=1.0 if k < 6 else None, ratio=None)
+             for k, s in enumerate(steps)]
+    steps[8] = StepScale(steps[8].R, steps[8].t_dir, 0.0, 0.2)  # a frame dropped: twice the time, no road
+    lengths = [np.linalg.norm(m[:3, 3]) for _, m in run_window(steps)]
+    np.testing.assert_allclose(lengths, [1.0] * 8 + [2.0] + [1.0] * 3, rtol=1e-9)
+
+
 def test_a_long_gap_without_a_ratio_breaks_the_link():
     """Steps after an hour's gap keep their own road length, not the speed before it."""
     before, _ = drive(np.full(10, 1.0))

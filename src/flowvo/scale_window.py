@@ -37,7 +37,7 @@ RATIO_SIGMA = 0.01  # log: the three-view ratio's spread on the real clips (inte
 ROAD_SIGMA = 0.05  # log: the road length's spread at constant speed (real clip 06)
 NETWORK_SIGMA = 0.4  # log: the network's distance, biased on real frames (+45 % through a turn of clip 07)
 PAIR_SIGMA = 2.0  # log: the per-pair estimate, only so that a window without any measurement stays solvable
-UNLINKED_SIGMA = 0.05  # log: consecutive steps without a ratio change their length this little (10 Hz)
+UNLINKED_SIGMA = 0.05  # log: consecutive steps without a ratio change their speed this little (10 Hz)
 HUBER_THRESHOLD = 2.0  # sigmas: beyond, Huber counts residuals linearly; Cauchy's scale (real clips, t_err
 # 01 / 06 / 07: Huber alone 1.37 / 1.38 / 1.92 %, then Cauchy 1.50 / 1.19 / 1.84 %)
 HUBER_ITERATIONS = 3  # Huber only brings Cauchy near its minimum
@@ -161,8 +161,8 @@ class ScaleWindow:
         for k, (_, step) in enumerate(self._steps):
             if k and self.ratios and _usable(step.ratio):
                 links.append((k, float(np.log(step.ratio)), RATIO_SIGMA))
-            elif k and step.dt_s <= SPEED_HORIZON_S:
-                links.append((k, 0.0, UNLINKED_SIGMA))
+            elif k and step.dt_s <= SPEED_HORIZON_S:  # about the same speed: lengths in proportion to the time
+                links.append((k, float(np.log(step.dt_s / self._steps[k - 1][1].dt_s)), UNLINKED_SIGMA))
             for value, sigma in ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA),
                                  (step.pair_m, PAIR_SIGMA)):
                 if _usable(value):
