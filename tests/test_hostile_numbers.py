@@ -27,6 +27,7 @@ OUT_OF_RANGE = [  # (sub-command and required arguments, option, bad values)
     ("flow --data {data} --sequence 00 --visualize {tmp}/v", "--every", ["0", "-1"]),
     ("run --data {data} --sequence 00 --out {tmp}/r", "--max-frames", ["0", "1", "-3"]),
     ("run --data {data} --sequence 00 --out {tmp}/r", "--fx", ["x"]),
+    ("run --data {data} --sequence 00 --out {tmp}/r", "--latency", ["-1", "101", "2.5", "nan"]),
     ("train --data {data}", "--epochs", ["0", "-1"]),
     ("train --data {data}", "--batch-size", ["0"]),
     ("train --data {data}", "--lr", ["0", "-1e-3", "nan", "inf"]),
