@@ -144,7 +144,8 @@ class FlowGeometryStep(WorkingFrames):
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.speed = SpeedPrior()
         self.last_motion = np.eye(4)
-        self._last_fit: EssentialMotion | None = None  # the last moving step's motion (three-view ratios)
+        # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios
+        self._last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None = None
         self._step_scale: StepScale | None = None  # the last step, for the window stage
         self.min_parallax_px = MIN_PARALLAX_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self._previous: GeometryFrame | None = None
@@ -224,7 +225,7 @@ class FlowGeometryStep(WorkingFrames):
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds: the per-pair estimate
         (the window stage, :meth:`refine`, may change its length)."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
-        last_fit, self._last_fit, self._step_scale = self._last_fit, None, None
+        last_step, self._last_step, self._step_scale = self._last_step, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
         road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1)))
         key_is_previous = flow.key_prev is None
@@ -268,21 +269,21 @@ class FlowGeometryStep(WorkingFrames):
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
         if self.window is not None:
             plausible = road_m is not None and road_m <= self.speed.max_speed_mps * dt_s
-            ratio = None if last_fit is None else self._length_ratio(previous, flow.current, last_fit, fit)
+            ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
             self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
                                          ratio)
-            self._last_fit = fit
+            self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
 
-    def _length_ratio(self, previous: GeometryFrame, current: GeometryFrame, last_fit: EssentialMotion,
+    def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
                       fit: EssentialMotion) -> float | None:
         """This step's length over the last one's (:mod:`flowvo.scale_propagation`), from the last step's
-        inlier tracks that went on into ``current``."""
-        inlier = last_fit.inliers[current.continued_rows]  # the last fit's rows are previous.tracked_next's
-        rows, after = current.continued_rows[inlier], current.continued_next[inlier]
-        at = self._undistort(previous.tracked_next[rows])
-        return step_length_ratio((self._undistort(previous.tracked_prev[rows]), at), last_fit,
-                                 (at, self._undistort(after)), fit, self.K, self.min_parallax_px)
+        inlier tracks (its fit and undistorted tracks) that went on into ``current``."""
+        last_fit, before, at = last_step
+        inlier = last_fit.inliers[current.continued_rows]  # rows of the last step's tracks
+        rows = current.continued_rows[inlier]
+        return step_length_ratio((before[rows], at[rows]), last_fit, (at[rows], self._undistort(
+            current.continued_next[inlier])), fit, self.K, self.min_parallax_px)
 
     def measured(self) -> StepScale | None:
         """What the last :meth:`motion` measured of its step's length, for the window (None: a standstill)."""
