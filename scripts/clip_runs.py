@@ -1,14 +1,23 @@
-"""What the real-clip scripts share: the clips with the sub-path lengths each is scored on, and one run of
-``flowvo run`` on a clip reduced to its table cell."""
+"""What the real-clip scripts share: the clips with the sub-path lengths each is scored on, one run of
+``flowvo run`` on a clip reduced to its table cell, and one in-process stream of a per-frame step built
+for a clip (for variants the command line does not offer)."""
 
 from __future__ import annotations
 
 import json
 import subprocess
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
+from flowvo.camera import Camera
+from flowvo.drive import RunOptions, open_drive
+from flowvo.evaluation import evaluate
 from flowvo.kitti.poses import read_kitti_poses
+from flowvo.methods.base import OdometryStep
 from flowvo.metrics.kitti_odometry import trajectory_distances
+from flowvo.stream import stream_odometry, timing_report
+from flowvo.trajectory import Trajectory
 
 # clip -> sub-path lengths (m): 01 fits the devkit's 100 m, 06 and 07 are shorter than 100 m
 CLIPS = {"01": ["100"], "06": ["10", "20", "30", "40", "50"], "07": ["10", "20", "30", "40", "50"]}
@@ -24,3 +33,26 @@ def run_cell(data: Path, clip: str, out: Path, extra: list[str] = ()) -> str:
     truth = trajectory_distances(read_kitti_poses(data / "poses" / f"{clip}.txt").positions)[-1]
     length = trajectory_distances(read_kitti_poses(out / f"{clip}.txt").positions)[-1]
     return f"{metrics['t_err_percent']:.2f} / {metrics['r_err_deg_per_m']:.4f} / {100 * (length / truth - 1):+.1f} %"
+
+
+@dataclass(frozen=True)
+class ClipScore:
+    """A stream's result on a clip: t_err (%), its path length over the truth's, and frames/s."""
+
+    t_err_percent: float
+    length_ratio: float
+    frames_per_second: float
+
+
+def stream_clip(data: Path, clip: str, build: Callable[[Camera, tuple[int, int]], OdometryStep]) -> ClipScore:
+    """Stream the step ``build(camera, image_size_hw)`` over ``clip`` of the KITTI folder ``data`` (with its
+    ground truth) and score it on the clip's sub-paths."""
+    drive = open_drive(RunOptions(out="", data=str(data), sequence=clip))
+    source = drive.source
+    result = stream_odometry(source.frames(), build(drive.camera, source.image_size_hw), source.frame_count,
+                             label=clip)
+    predicted = Trajectory.from_poses(result.T_world_cam)
+    metrics = evaluate(source.ground_truth, predicted, lengths_m=tuple(float(m) for m in CLIPS[clip])).metrics
+    predicted_m, truth_m = (trajectory_distances(t.T_world_cam[:, :3, 3])[-1] for t in (predicted, source.ground_truth))
+    return ClipScore(float(metrics["t_err_percent"]), float(predicted_m / truth_m),
+                     float(timing_report(result)["frames_per_second"]))

@@ -8,17 +8,11 @@ Usage: python scripts/window_ablation.py [CLIPS_ROOT]
 import sys
 from pathlib import Path
 
-from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
+from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT, stream_clip
 
-from flowvo.drive import RunOptions, open_drive
-from flowvo.evaluation import evaluate
-from flowvo.kitti.poses import read_kitti_poses
 from flowvo.methods.cnn import load_cnn_step
 from flowvo.methods.flowvo import FlowGeometryStep
-from flowvo.metrics.kitti_odometry import trajectory_distances
 from flowvo.scale_window import ScaleWindow
-from flowvo.stream import stream_odometry, timing_report
-from flowvo.trajectory import Trajectory
 
 VARIANTS = {
     "per pair (flowvo-pair)": None,
@@ -34,18 +28,10 @@ VARIANTS = {
 
 def run(root: Path, clip: str, window: dict | None) -> tuple[str, float]:
     """The cell ``t_err % / path length`` of the default method with this window on ``clip``, and frames/s."""
-    drive = open_drive(RunOptions(out="", data=str(root), sequence=clip))
-    source = drive.source
-    step = FlowGeometryStep(drive.camera, source.image_size_hw,
-                            fallback=load_cnn_step(drive.camera, source.image_size_hw, None),
-                            window=None if window is None else ScaleWindow(**window))
-    result = stream_odometry(source.frames(), step, source.frame_count, label=clip)
-    predicted = Trajectory.from_poses(result.T_world_cam)
-    truth = read_kitti_poses(root / "poses" / f"{clip}.txt")
-    metrics = evaluate(truth, predicted, lengths_m=tuple(float(x) for x in CLIPS[clip])).metrics
-    lengths = [trajectory_distances(t.T_world_cam[:, :3, 3])[-1] for t in (predicted, truth)]
-    length = lengths[0] / lengths[1]
-    return f"{metrics['t_err_percent']:.2f} / {100 * (length - 1):+.1f} %", timing_report(result)["frames_per_second"]
+    score = stream_clip(root, clip, lambda camera, size_hw: FlowGeometryStep(
+        camera, size_hw, fallback=load_cnn_step(camera, size_hw, None),
+        window=None if window is None else ScaleWindow(**window)))
+    return (f"{score.t_err_percent:.2f} / {100 * (score.length_ratio - 1):+.1f} %", score.frames_per_second)
 
 
 def main(root: Path) -> None:

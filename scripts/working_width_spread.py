@@ -8,15 +8,12 @@ from __future__ import annotations
 
 import argparse
 import statistics
+from pathlib import Path
 
-from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
+from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT, stream_clip
 
-from flowvo.drive import RunOptions, open_drive
-from flowvo.evaluation import evaluate
 from flowvo.methods.flowvo import FlowGeometryStep
 from flowvo.scale_window import ScaleWindow
-from flowvo.stream import stream_odometry
-from flowvo.trajectory import Trajectory
 
 WIDTHS_PX = tuple(range(600, 641, 4))
 
@@ -24,13 +21,8 @@ WIDTHS_PX = tuple(range(600, 641, 4))
 def t_err_percent(clips: str, clip: str, width_px: int, per_pair: bool) -> float:
     """flowvo-geometry's t_err on ``clip`` at working width ``width_px`` (the network fallback is trained at
     620 px only); ``per_pair``: without the scale window."""
-    drive = open_drive(RunOptions(out="", data=clips, sequence=clip))
-    step = FlowGeometryStep(drive.camera, drive.source.image_size_hw, working_width=width_px,
-                            window=None if per_pair else ScaleWindow())
-    result = stream_odometry(drive.source.frames(), step, drive.source.frame_count)
-    lengths = tuple(float(m) for m in CLIPS[clip])
-    evaluation = evaluate(drive.source.ground_truth, Trajectory.from_poses(result.T_world_cam), lengths_m=lengths)
-    return float(evaluation.metrics["t_err_percent"])
+    return stream_clip(Path(clips), clip, lambda camera, size_hw: FlowGeometryStep(
+        camera, size_hw, working_width=width_px, window=None if per_pair else ScaleWindow())).t_err_percent
 
 
 def main() -> None:
