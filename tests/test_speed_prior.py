@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from flowvo.speed_prior import SpeedPrior, robust_line_value
+from flowvo.speed_prior import MAX_EXTRAPOLATION_S, SpeedPrior, robust_line_value
 
 
 def test_a_line_through_exact_measurements_is_reproduced():
@@ -32,6 +32,17 @@ def test_a_missing_measurement_keeps_the_trend():
     for i in range(9):
         prior.update(0.1 * i, 5.0 + 0.1 * i)
     assert prior.update(0.9, None) == pytest.approx(5.9, abs=1e-6)
+
+
+def test_a_trend_is_held_once_the_measurements_stop_for_longer_than_the_extrapolation():
+    prior = SpeedPrior()
+    for i in range(9):
+        prior.update(0.1 * i, 5.0 + 4.0 * 0.1 * i)  # 4 m/s^2 up to 0.8 s
+    held = 5.0 + 4.0 * (0.8 + MAX_EXTRAPOLATION_S)
+    speeds = [prior.update(0.1 * i, None) for i in range(9, 18)]  # 0.9 s without a measurement
+    assert speeds[0] == pytest.approx(5.0 + 4.0 * 0.9, abs=1e-6)  # followed at first
+    assert speeds[-1] == pytest.approx(held, abs=1e-6)  # then held, not 5 + 4 * 1.7
+    assert max(speeds) == pytest.approx(held, abs=1e-6)
 
 
 def test_no_measurement_yet_gives_none():

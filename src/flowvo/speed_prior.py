@@ -15,6 +15,9 @@ import numpy as np
 SPEED_WINDOW_S = 0.9  # the robust line's span: nine frames at KITTI's 10 Hz, where it was tuned
 MIN_WINDOW = 9  # measurements in the line at least (lower frame rates span more time, as tuned on 5-10 Hz)
 SPEED_HORIZON_S = 1.0  # the window's nine frames span 0.9 s at KITTI's 10 Hz; a longer gap ends the history
+MAX_EXTRAPOLATION_S = 0.5  # the line is followed this far past its last measurement, then held: a trend read
+# off 0.9 s says nothing of the seconds after it (synthetic 10, a car braking for 2.5 s without a trusted road:
+# the line's acceleration extrapolated to 5.5 m per step where the car made 0.4)
 
 
 def robust_line_value(times_s: np.ndarray, values: np.ndarray, at_s: float, iterations: int = 6) -> float:
@@ -35,10 +38,11 @@ class SpeedPrior:
 
     ``update(time_s, speed_mps)`` takes a measurement (None when the frame gave none) and returns the
     filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed).
-    Measurements above ``max_speed_mps`` are rejected as implausible. A gap between frames longer than
-    ``horizon_s`` (a paused recording, dropped frames) restarts the prior: the speed before it says nothing
-    of the motion over it, so it is never extrapolated across (an hour's gap at 11.5 m/s made one 41 km
-    step); the step over the gap is its own measurement, or none.
+    Measurements above ``max_speed_mps`` are rejected as implausible. Without new measurements the line is
+    followed for ``MAX_EXTRAPOLATION_S`` past the last one, then its speed there is held. A gap between
+    frames longer than ``horizon_s`` (a paused recording, dropped frames) restarts the prior: the speed
+    before it says nothing of the motion over it, so it is never extrapolated across (an hour's gap at
+    11.5 m/s made one 41 km step); the step over the gap is its own measurement, or none.
 
     The line runs through the last ``MIN_WINDOW`` measurements, or through as many as span ``window_s``
     seconds at the stream's frame rate when that is more (30 frames/s: 27), so a faster camera averages
@@ -72,7 +76,7 @@ class SpeedPrior:
         times, speeds = (np.array(column) for column in zip(*self._history, strict=True))
         if len(speeds) < self.min_points:
             return float(np.median(speeds))
-        return max(0.0, robust_line_value(times, speeds, time_s))
+        return max(0.0, robust_line_value(times, speeds, min(time_s, times[-1] + MAX_EXTRAPOLATION_S)))
 
     def _fit_window(self, interval_s: float) -> None:
         """Size the history to span ``window_s`` at the recent frame interval (never below MIN_WINDOW)."""
