@@ -43,7 +43,8 @@ HUBER_THRESHOLD = 2.0  # sigmas: beyond, Huber counts residuals linearly; Cauchy
 HUBER_ITERATIONS = 3  # Huber only brings Cauchy near its minimum
 MAX_CAUCHY_ITERATIONS = 50
 UNDETERMINED_WEIGHT = 1e-9  # 1/log^2: holds a step no measurement reaches at 0 (not used: it keeps its pair length)
-CONVERGED_LOG = 1e-6  # Cauchy stops once no log length moves more (a millionth of a step: far below any noise)
+CONVERGED_LOG = 1e-4  # Cauchy stops once no log length moves more (0.01 % of a step: far below any noise;
+# 1e-6 took 40 % more iterations for the same clip results to four digits)
 
 
 @dataclass(frozen=True)
