@@ -81,10 +81,10 @@ def test_demo_runs_end_to_end_with_the_packaged_model(tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "report:" in printed and "synthetic" in printed
     page = (tmp_path / "report" / "index.html").read_text()
-    assert "flowvo (dis-medium-fine road flow, geometry, network fallback, 5-frame scale window)" in page
+    assert "flowvo (dis-road road flow, geometry, network fallback, 5-frame scale window)" in page
     assert "cnn (dis-medium flow + network)" in page
     assert "classical (KLT" in page
-    assert re.search(r"flowvo \(dis-medium-fine[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary
+    assert re.search(r"flowvo \(dis-road[^\n]*(t_err|ATE) +\d+\.\d\d[^\n]*frames/s", printed)  # summary
     seconds = r"\d+\.\d{4}"
 
     def network_cell(method: str) -> str:  # the timing table's network column for the method's row

@@ -44,24 +44,24 @@ def no_image_area(image: np.ndarray, margin_px: int = 6) -> np.ndarray:
     return cv2.dilate(black, np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)) > 0
 
 
-def lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
+def lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray, window_px: int = 15
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramidal Lucas-Kanade: where ``points_px`` (N, 2) moved to, (N, 2) float32 pixels, and which were
-    found, (N,) bool."""
+    """Pyramidal Lucas-Kanade with ``window_px`` square windows: where ``points_px`` (N, 2) moved to, (N, 2)
+    float32 pixels, and which were found, (N,) bool."""
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
     start = points_px.reshape(-1, 1, 2).astype(np.float32)
     if not len(start):  # OpenCV returns None for no points
         return np.zeros((0, 2), np.float32), np.zeros(0, bool)
-    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, None, winSize=(15, 15), maxLevel=3,
-                                                criteria=criteria)
+    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, None, winSize=(window_px, window_px),
+                                                maxLevel=3, criteria=criteria)
     return moved.reshape(-1, 2), status[:, 0] == 1
 
 
-def track_points(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray
+def track_points(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray, window_px: int = 15
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramidal Lucas-Kanade tracks of ``points_px`` (N, 2): the points that were found and where
-    they moved to, each (M, 2) float32, pixels."""
-    moved, found = lucas_kanade(previous, current, points_px)
+    """Pyramidal Lucas-Kanade tracks of ``points_px`` (N, 2) (``window_px`` windows): the points that were
+    found and where they moved to, each (M, 2) float32, pixels."""
+    moved, found = lucas_kanade(previous, current, points_px, window_px)
     return points_px.reshape(-1, 2).astype(np.float32)[found], moved[found]
 
 

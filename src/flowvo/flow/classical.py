@@ -9,27 +9,34 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-# name: (OpenCV preset, finest pyramid level or None for the preset's). The presets stop one level above
-# the input (finest level 1: flow estimated at half resolution, then upsampled); the "-fine" variants
-# go down to the input resolution, which halves the spread of road-plane scale estimates on real KITTI.
-DIS_PRESETS = {
-    "dis-ultrafast": (cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST, None),
-    "dis-fast": (cv2.DISOPTICAL_FLOW_PRESET_FAST, None),
-    "dis-medium": (cv2.DISOPTICAL_FLOW_PRESET_MEDIUM, None),
-    "dis-fast-fine": (cv2.DISOPTICAL_FLOW_PRESET_FAST, 0),
-    "dis-medium-fine": (cv2.DISOPTICAL_FLOW_PRESET_MEDIUM, 0),
+# name: (OpenCV preset, settings that differ from the preset's). The presets stop one pyramid level above
+# the input (finest scale 1: flow estimated at half resolution, then upsampled); the "-fine" variants go down
+# to the input resolution, which halves the spread of road-plane scale estimates on real KITTI.
+# "dis-road", the default method's road flow: "dis-medium-fine" with patches every 4 px instead of 3 and one
+# iteration of the variational refinement (a smoothness energy over the field) instead of five. On the road
+# crop of the real clips at 620 px it takes 2.9 instead of 5.5 ms, with the road step lengths as good (against
+# the truth, with the road predicted as the default method does: median -1.6 % against -1.8 %, inter-quartile
+# 5.0 % against 4.7 %). Without any refinement, steps at walking pace came out 16 % long (clip 07's start).
+DIS_PRESETS: dict[str, tuple[int, dict[str, int]]] = {
+    "dis-ultrafast": (cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST, {}),
+    "dis-fast": (cv2.DISOPTICAL_FLOW_PRESET_FAST, {}),
+    "dis-medium": (cv2.DISOPTICAL_FLOW_PRESET_MEDIUM, {}),
+    "dis-fast-fine": (cv2.DISOPTICAL_FLOW_PRESET_FAST, {"FinestScale": 0}),
+    "dis-medium-fine": (cv2.DISOPTICAL_FLOW_PRESET_MEDIUM, {"FinestScale": 0}),
+    "dis-road": (cv2.DISOPTICAL_FLOW_PRESET_MEDIUM,
+                 {"FinestScale": 0, "PatchStride": 4, "VariationalRefinementIterations": 1}),
 }
 
 
 class DisFlow:
-    """OpenCV Dense Inverse Search at a named preset (and finest level)."""
+    """OpenCV Dense Inverse Search at a named preset (with its settings, :data:`DIS_PRESETS`)."""
 
     def __init__(self, name: str) -> None:
         self.name = name
-        preset, finest_level = DIS_PRESETS[name]
+        preset, settings = DIS_PRESETS[name]
         self._dis = cv2.DISOpticalFlow_create(preset)
-        if finest_level is not None:
-            self._dis.setFinestScale(finest_level)
+        for setting, value in settings.items():
+            getattr(self._dis, f"set{setting}")(value)
 
     def estimate(self, prev: np.ndarray, next: np.ndarray) -> np.ndarray:
         return self._dis.calc(np.ascontiguousarray(prev), np.ascontiguousarray(next), None).astype(np.float32)
