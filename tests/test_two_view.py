@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from flowvo.geometry import so3_exp
-from flowvo.road_scale import fit_road_plane, road_grid, road_step_length_m
+from flowvo.road_scale import fit_road_plane, road_grid, road_step_length_m, trusted_road_plane
 from flowvo.two_view import EssentialMotion, essential_motion, no_image_area, textured_points, triangulate
 
 K = np.array([[350.0, 0.0, 300.0], [0.0, 350.0, 92.0], [0.0, 0.0, 1.0]])
@@ -70,6 +70,19 @@ def test_a_slope_ahead_is_not_taken_for_the_road_under_the_camera():
     slope[:, 1] -= np.tan(np.radians(5.0)) * (slope[:, 2] - 5.0)  # rising 5 degrees ahead
     motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
     assert road_step_length_m(project(slope), project(slope @ R.T + t), K, motion, HEIGHT_M) is None
+
+
+def test_a_road_whose_flow_is_lost_is_not_trusted_but_a_slow_step_is():
+    """A road whose flow is mostly lost (no texture, or a car ahead moving along): its points show a tenth
+    of the step, 0.13 px of parallax, and would give a plane ten times too far. Below 1 px of parallax no
+    plane is trusted; a real step of 0.3 m (1.3 px) keeps its exact length."""
+    _, road, R, t = scene_and_motion(step_m=0.3)
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
+    lost = project(road @ R.T + 0.1 * t)
+    assert trusted_road_plane(project(road), lost, K, motion).distance == pytest.approx(HEIGHT_M / 0.03, rel=1e-6)
+    assert trusted_road_plane(project(road), lost, K, motion, min_parallax_px=1.0) is None
+    plane = trusted_road_plane(project(road), project(road @ R.T + t), K, motion, min_parallax_px=1.0)
+    assert HEIGHT_M / plane.distance == pytest.approx(0.3, rel=1e-6)
 
 
 def test_no_plane_without_enough_points_below_the_camera():
