@@ -74,8 +74,8 @@ def test_a_slope_ahead_is_not_taken_for_the_road_under_the_camera():
 
 def test_a_road_whose_flow_is_lost_is_not_trusted_but_a_slow_step_is():
     """A road whose flow is mostly lost (no texture, or a car ahead moving along): its points show a tenth
-    of the step, 0.13 px of parallax, and would give a plane ten times too far. Below 1 px of parallax no
-    plane is trusted; a real step of 0.3 m (1.3 px) keeps its exact length."""
+    of the step (0.57 px of parallax at the 90th percentile) and would give a plane ten times too far.
+    Below 1 px no plane is trusted; a real step of 0.3 m (5.9 px) keeps its exact length."""
     _, road, R, t = scene_and_motion(step_m=0.3)
     motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
     lost = project(road @ R.T + 0.1 * t)
