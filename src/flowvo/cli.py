@@ -303,7 +303,7 @@ def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None =
                    help=f"flowvo, flowvo-geometry: each pose is final this many frames late (default "
                         f"{LATENCY_FRAMES}; 0: at once, less accurate: docs/results.md)")
     p.add_argument("--flow-method", choices=available_flow_methods(),
-                   help="flow method (flowvo: of the road crop, default dis-medium-fine; cnn: default the model's)")
+                   help="flow method (flowvo: of the road crop, default dis-road; cnn: default the model's)")
 
 
 def _run_options(args: argparse.Namespace, out: str) -> RunOptions:

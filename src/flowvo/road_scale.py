@@ -120,8 +120,8 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
     than ``min_parallax_px`` (pixels) beyond what the rotation explains: a road whose flow is lost (no
     texture, a car right in front moving along) has no depth to triangulate (the nearest rows move most,
     hence the 90th percentile: at walking pace the far rows barely move)."""
-    parallax_px = translation_parallax_px(points_prev, points_next, K, motion.R)
-    if min_parallax_px and np.percentile(parallax_px, 90) < min_parallax_px:
+    if min_parallax_px and np.percentile(translation_parallax_px(points_prev, points_next, K, motion.R),
+                                         90) < min_parallax_px:
         return None
     plane = fit_road_plane(triangulate(points_prev, points_next, K, motion))
     if plane is None or plane.distance <= 0 or plane.tilt_rad > max_tilt_rad \
