@@ -11,8 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.scale_propagation import translation_parallax_px
-from flowvo.two_view import EssentialMotion, triangulate
+from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulate
 
 ROAD_ROWS = (0.10, 0.35)  # the road grid's rows below the principal point, in frame heights
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths

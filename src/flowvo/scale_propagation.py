@@ -15,21 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.two_view import EssentialMotion, pair_depths
+from flowvo.two_view import EssentialMotion, pair_depths, translation_parallax_px
 
 MIN_PARALLAX_PX = 2.0  # at the reference width: translation parallax below this leaves the depth too uncertain
 MIN_POINTS = 20  # points seen in all three frames with parallax in both steps, at least
 MAX_DEPTH_STEPS = 200.0  # a point farther than this many step lengths has no usable depth
-
-
-def translation_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
-                            R: np.ndarray) -> np.ndarray:
-    """How far each point (N, 2) moved beyond what the rotation ``R`` (``R_next_prev``) alone explains,
-    pixels (N,): the part of the motion that carries depth."""
-    rotated = np.c_[points_prev, np.ones(len(points_prev))] @ np.linalg.inv(K).T @ R.T @ K.T
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rotated_px = rotated[:, :2] / rotated[:, 2:3]
-    return np.linalg.norm(points_next - rotated_px, axis=1)
 
 
 def step_length_ratio(first: tuple[np.ndarray, np.ndarray], first_motion: EssentialMotion,

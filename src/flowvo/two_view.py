@@ -124,6 +124,16 @@ def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:
     return np.c_[points_px, np.ones(len(points_px))] @ np.linalg.inv(K).T
 
 
+def translation_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
+                            R: np.ndarray) -> np.ndarray:
+    """How far each point (N, 2) moved beyond what the rotation ``R`` (``R_next_prev``) alone explains,
+    pixels (N,): the part of the motion that carries depth."""
+    rotated = _rays(points_prev, K) @ R.T @ K.T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rotated_px = rotated[:, :2] / rotated[:, 2:3]
+    return np.linalg.norm(points_next - rotated_px, axis=1)
+
+
 def pair_depths(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Depths (z, N each) of correspondences (N, 2) in the first and in the second camera, in units of the
