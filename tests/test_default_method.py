@@ -3,13 +3,14 @@ network fallback, the road key frame; and its policies (fallback after a second,
 
 from types import SimpleNamespace
 
+import cv2
 import numpy as np
 import pytest
 
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
-from flowvo.road_scale import NetworkFallbackPolicy, road_homography
+from flowvo.road_scale import NetworkFallbackPolicy, RoadPlane, road_homography, trusted_road_plane
 from flowvo.scale_window import ScaleWindow
 from flowvo.speed_prior import SpeedPrior
 from flowvo.two_view import EssentialMotion
@@ -131,6 +132,29 @@ def test_road_homography_maps_road_points_exactly():
     before, after = project(K, road), project(K, road @ R.T + t_dir * 1.3)
     mapped = np.c_[before, np.ones(20)] @ H.T
     np.testing.assert_allclose(mapped[:, :2] / mapped[:, 2:], after, atol=1e-3)
+
+
+@pytest.mark.parametrize("predicted_m", [None, 1.0, 1.05])
+def test_road_flow_of_an_exactly_moved_road_gives_its_step_length(predicted_m):
+    """A textured frame moved by the homography of a flat road under a 1 m step and a 1 degree turn: the
+    road flow (without a prediction, with the exact one, with one 5 % too long) and the exact motion give
+    the step length from the road plane within 1 % (DIS leaves part of a mispredicted residual unmeasured,
+    at most a fifth, measured)."""
+    step = FlowGeometryStep(CAMERA, HW)
+    R = so3_exp(np.array([0.0, np.radians(1.0), 0.0]))
+    motion = EssentialMotion(R, -R @ np.array([0.0, 0.0, 1.0]), np.ones(1, bool))
+
+    def moved_by(length_m):
+        return road_homography(step.K, motion, RoadPlane(CAMERA.height_m / length_m, np.array([0.0, 1.0, 0.0]), 1.0))
+
+    texture = np.random.default_rng(3).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
+    previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
+    current = cv2.warpPerspective(previous, moved_by(1.0), HW[::-1], flags=cv2.INTER_CUBIC,
+                                  borderMode=cv2.BORDER_REFLECT)
+    road_next = step.road_flow(previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8),
+                               None if predicted_m is None else moved_by(predicted_m))
+    plane = trusted_road_plane(step.road_px_undistorted, road_next, step.K, motion)
+    assert CAMERA.height_m / plane.distance == pytest.approx(1.0, rel=0.01)
 
 
 @pytest.mark.parametrize(("rate_hz", "window"), [(5.0, 9), (10.0, 9), (30.0, 27)])

@@ -192,17 +192,20 @@ class FlowGeometryStep(WorkingFrames):
         motion = self._undistort(current.tracked_prev), self._undistort(current.tracked_next)
         key = self._road_key
         if key is None or key is previous:
-            return GeometryFlow(*motion, self.road_px_undistorted, self._road_flow(previous.image, current.image),
-                                current)
+            road = self.road_flow(previous.image, current.image, self._road_prediction)
+            return GeometryFlow(*motion, self.road_px_undistorted, road, current)
         key_prev, key_next = track_points(key.image, current.image, key.textured_px, TRACK_WINDOW_PX)
-        return GeometryFlow(*motion, self.road_px_undistorted, self._road_flow(key.image, current.image), current,
-                            self._undistort(key_prev), self._undistort(key_next))
+        road = self.road_flow(key.image, current.image, self._road_prediction)
+        return GeometryFlow(*motion, self.road_px_undistorted, road, current, self._undistort(key_prev),
+                            self._undistort(key_next))
 
-    def _road_flow(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
-        """Where the road grid points of ``previous`` are in ``current`` (R, 2), undistorted working pixels.
+    def road_flow(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
+        """Where the road grid points of working frame ``previous`` are in ``current`` (R, 2), undistorted
+        working pixels.
 
-        Where the last step found the road plane, the current frame is first warped onto the previous frame's
-        road by the road homography of the last step (its plane and motion: constant velocity), and DIS
+        With a ``prediction`` (a road homography ``previous -> current`` on undistorted working pixels: the
+        default method passes the last step's plane and motion, constant velocity, where that step found the
+        road plane), the current frame is first warped onto the previous frame's road by it, and DIS
         measures only what the prediction missed: large road motion (fast driving, low frame rates) stays
         within reach of the flow, points that leave the crop are still seen, and the residual is small and
         nearly uniform, which DIS measures best. On the real clips the road step lengths against the truth
@@ -211,7 +214,6 @@ class FlowGeometryStep(WorkingFrames):
         distortion the warp goes through the lens."""
         grid = self.road_px - self.crop_origin
         previous_crop = np.ascontiguousarray(previous[self.crop])
-        prediction = self._road_prediction
         if prediction is None:
             flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[self.crop]))
             return self._undistort(follow_flow(grid, flow) + self.crop_origin)
