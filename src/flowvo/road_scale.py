@@ -13,7 +13,7 @@ import numpy as np
 
 from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulate
 
-ROAD_ROWS = (0.10, 0.35)  # the road grid's rows below the principal point, in frame heights
+ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
 GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
 
@@ -35,8 +35,9 @@ def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
 def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = ROAD_ROWS,
               half_width: float = ROAD_HALF_WIDTH, step_px: int = GRID_MARGIN_PX) -> np.ndarray:
     """Where to read the road's flow: a regular grid (R, 2) float32 of rows ``cy + rows * H`` within
-    ``half_width * W`` of the principal point column, where the road ahead usually is (rows far below
-    fail: the road there moves and stretches too much between frames)."""
+    ``half_width * W`` of the principal point column, where the road ahead usually is. The nearest rows
+    measure the road best (a road point's parallax falls with the square of its distance); their large,
+    stretching motion is within reach because the default method predicts the road's flow."""
     h, w = image_hw
     cx, cy = K[0, 2], K[1, 2]
     top, bottom = int(cy + rows[0] * h), min(h - GRID_MARGIN_PX, int(cy + rows[1] * h))
@@ -45,7 +46,7 @@ def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float
     return np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float32)
 
 
-def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.05, 0.42),
+def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.05, 0.50),
               half_width: float = 0.25) -> tuple[slice, slice]:
     """The part of the frame whose dense flow the road scale needs: the :func:`road_grid` band with margins
     (road points move down and outwards between frames). Rows ``cy + rows * H``, columns within
@@ -54,6 +55,17 @@ def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float
     cx, cy = K[0, 2], K[1, 2]
     return (slice(int(cy + rows[0] * h), min(h, int(cy + rows[1] * h))),
             slice(max(0, int(cx - half_width * w)), min(w, int(cx + half_width * w))))
+
+
+def road_points_in_view(points_prev: np.ndarray, points_next: np.ndarray, image_hw: tuple[int, int],
+                        margin_px: int = GRID_MARGIN_PX) -> tuple[np.ndarray, np.ndarray]:
+    """The road correspondences (N, 2) whose second position lies inside a frame of ``image_hw`` (pixels),
+    ``margin_px`` from its edges: the nearest road leaves the frame on a long step, and the flow there is
+    the frame's replicated border, not the road."""
+    h, w = image_hw
+    x, y = points_next[:, 0], points_next[:, 1]
+    inside = (x >= margin_px) & (x < w - margin_px) & (y >= margin_px) & (y < h - margin_px)
+    return points_prev[inside], points_next[inside]
 
 
 @dataclass(frozen=True)
@@ -76,7 +88,10 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     """Robust plane through road points (N, 3) below the camera (y down), or None.
 
     RANSAC over point triples whose normal is within ``acos(min_normal_y)`` of the camera's down axis,
-    inliers within a fraction of the median height, then a least-squares refit.
+    inliers within a fraction of the median height, then a least-squares refit that weighs each inlier by
+    the inverse variance of its height: triangulated from a step, a road point's height errs in proportion
+    to the square of its depth ``z`` (its parallax falls with ``z^2``), so the weights are ``z^-4`` and the
+    near road carries the plane.
     """
     total = len(points)
     points = points[(points[:, 2] > 0) & (points[:, 1] > 0)]
@@ -102,8 +117,10 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     inliers = points[distances[:, best] < tolerance]
     if len(inliers) < 10:
         return None
-    centre = inliers.mean(axis=0)
-    normal = np.linalg.svd(inliers - centre)[2][2]
+    weights = inliers[:, 2] ** -4.0
+    weights /= weights.sum()
+    centre = weights @ inliers
+    normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None])[2][2]
     normal = normal if normal[1] > 0 else -normal
     return RoadPlane(float(normal @ centre), normal, len(inliers) / total)
 

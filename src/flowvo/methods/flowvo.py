@@ -34,6 +34,7 @@ from flowvo.road_scale import (
     road_crop,
     road_grid,
     road_homography,
+    road_points_in_view,
     road_room,
     trusted_road_plane,
 )
@@ -64,6 +65,8 @@ KEY_ROAD_PX = 6.0  # at the reference width: a step whose road moved less keeps 
 # the road's motion: two such steps stay within it;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
+TIME_TOLERANCE_S = 1e-6  # timestamps from different containers differ in their last bits (0.3 against
+# 0.30000000000000004): an age compared with MAX_ROAD_KEY_S must not depend on them
 CONTINUE_EVERY = 6  # every sixth tracked point is followed into the next frame too (three-view ratios): all
 # of them, every third and every sixth measured alike on the real clips; each hundred costs 0.75 ms of LK
 MIN_ROAD_PARALLAX_PX = 1.0  # at the reference width: a road whose points moved less (after the rotation, nine in
@@ -238,7 +241,8 @@ class FlowGeometryStep(WorkingFrames):
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1)))
+        road_prev, road_next = road_points_in_view(flow.road_prev, flow.road_next, self.working_hw)
+        road_moved_px = float(np.median(np.linalg.norm(road_next - road_prev, axis=1))) if len(road_prev) else 0.0
         key_is_previous = flow.key_prev is None
         key_frame = previous if key_is_previous else self._road_key
         key_time_s = times_s[0] if key_is_previous else self._key_time_s
@@ -258,11 +262,12 @@ class FlowGeometryStep(WorkingFrames):
             return self.last_motion
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
-        plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
+        plane = None if key_fit is None else trusted_road_plane(road_prev, road_next, self.K, key_fit,
                                                                 min_parallax_px=self.min_road_parallax_px)
         # the road's length since the key frame, as this step's share at the speed it gives
         step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
-        if plane is not None and road_moved_px < self.key_road_px and time_s - key_time_s < MAX_ROAD_KEY_S:
+        key_young = time_s - key_time_s < MAX_ROAD_KEY_S - TIME_TOLERANCE_S
+        if plane is not None and road_moved_px < self.key_road_px and key_young:
             # the road moved too little for a precise scale: the next step measures from the same key frame
             self._road_key, self._key_time_s, self._key_steps = key_frame, key_time_s, key_steps
         elif plane is not None and key_is_previous:
