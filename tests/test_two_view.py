@@ -6,8 +6,8 @@ import pytest
 from flowvo.geometry import so3_exp
 from flowvo.road_scale import (
     fit_road_plane,
-    measurable_road_points,
     road_grid,
+    road_points_in_view,
     road_step_length_m,
     trusted_road_plane,
 )
@@ -83,19 +83,12 @@ def test_road_plane_is_carried_by_the_near_road():
     assert abs(abs(normal @ centre) / 1.65 - 1) > 5e-3
 
 
-def test_road_points_the_flow_cannot_measure_are_dropped():
-    before = np.array([[300.0, 150.0], [300.0, 180.0], [10.0, 150.0], [600.0, 100.0], [320.0, 120.0],
-                       [330.0, 110.0]], np.float32)
-    after = np.array([[301.0, 160.0], [302.0, 190.0], [2.0, 158.0], [618.0, 104.0], [321.0, 125.0],
-                      [331.0, 114.0]], np.float32)
-    kept, _ = measurable_road_points(before, after, None, (188, 620), reach_px=12.0)
-    np.testing.assert_array_equal(kept, before[[0, 4, 5]])  # below, left of and right of the frame: dropped
-    flow = np.array([[20.0, 3.0]] * 5 + [[20.0, 16.0]], np.float32)  # a common shift, one point 13 px off it
-    kept, kept_after = measurable_road_points(before, after, flow, (188, 620), reach_px=12.0)
-    np.testing.assert_array_equal(kept, before[[0, 4]])
-    np.testing.assert_array_equal(kept_after, after[[0, 4]])
-    kept, _ = measurable_road_points(before, after, None, (188, 620), reach_px=12.0, max_row_px=130.0)
-    np.testing.assert_array_equal(kept, before[[4, 5]])  # the nearer rows, when the flow was not predicted
+def test_road_points_that_left_the_frame_are_dropped():
+    before = np.array([[300.0, 150.0], [300.0, 180.0], [10.0, 150.0], [600.0, 100.0]], np.float32)
+    after = np.array([[301.0, 160.0], [302.0, 190.0], [2.0, 158.0], [618.0, 104.0]], np.float32)
+    kept_before, kept_after = road_points_in_view(before, after, (188, 620), margin_px=4)
+    np.testing.assert_array_equal(kept_before, before[[0]])  # below, left of and right of the frame: dropped
+    np.testing.assert_array_equal(kept_after, after[[0]])
 
 
 def test_a_slope_ahead_is_not_taken_for_the_road_under_the_camera():

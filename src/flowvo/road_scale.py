@@ -16,7 +16,6 @@ from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulat
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
 GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
-MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 
 
 def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
@@ -58,23 +57,15 @@ def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float
             slice(max(0, int(cx - half_width * w)), min(w, int(cx + half_width * w))))
 
 
-def measurable_road_points(points_prev: np.ndarray, points_next: np.ndarray, flow_px: np.ndarray | None,
-                           image_hw: tuple[int, int], reach_px: float, max_row_px: float | None = None,
-                           margin_px: int = GRID_MARGIN_PX) -> tuple[np.ndarray, np.ndarray]:
-    """The road correspondences (N, 2) the flow measured: their second position inside a frame of
-    ``image_hw`` (pixels), ``margin_px`` from its edges (the nearest road leaves the frame on a long step,
-    and the flow there is the frame's replicated border); the flow's own motion ``flow_px`` (N, 2) (None:
-    exact correspondences) within ``reach_px`` of the road's median motion (coarse to fine, DIS follows a
-    common shift, a turn, but under-estimates a stretch beyond its reach); and, where ``max_row_px`` is
-    given, their first position at most that row (the nearer road, when its flow was not predicted)."""
+def road_points_in_view(points_prev: np.ndarray, points_next: np.ndarray, image_hw: tuple[int, int],
+                        margin_px: int = GRID_MARGIN_PX) -> tuple[np.ndarray, np.ndarray]:
+    """The road correspondences (N, 2) whose second position lies inside a frame of ``image_hw`` (pixels),
+    ``margin_px`` from its edges: the nearest road leaves the frame on a long step, and the flow there is
+    the frame's replicated border, not the road."""
     h, w = image_hw
     x, y = points_next[:, 0], points_next[:, 1]
-    kept = (x >= margin_px) & (x < w - margin_px) & (y >= margin_px) & (y < h - margin_px)
-    if flow_px is not None and len(flow_px):
-        kept &= np.linalg.norm(flow_px - np.median(flow_px, axis=0), axis=1) <= reach_px
-    if max_row_px is not None:
-        kept &= points_prev[:, 1] <= max_row_px
-    return points_prev[kept], points_next[kept]
+    inside = (x >= margin_px) & (x < w - margin_px) & (y >= margin_px) & (y < h - margin_px)
+    return points_prev[inside], points_next[inside]
 
 
 @dataclass(frozen=True)
@@ -104,7 +95,7 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     """
     total = len(points)
     points = points[(points[:, 2] > 0) & (points[:, 1] > 0)]
-    if len(points) < MIN_ROAD_POINTS:
+    if len(points) < 20:
         return None
     rng = np.random.default_rng(seed)
     triples = points[rng.integers(0, len(points), size=(iterations, 3))]
@@ -145,8 +136,6 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
     than ``min_parallax_px`` (pixels) beyond what the rotation explains: a road whose flow is lost (no
     texture, a car right in front moving along) has no depth to triangulate (the nearest rows move most,
     hence the 90th percentile: at walking pace the far rows barely move)."""
-    if len(points_prev) < MIN_ROAD_POINTS:
-        return None
     if min_parallax_px and np.percentile(translation_parallax_px(points_prev, points_next, K, motion.R),
                                          90) < min_parallax_px:
         return None

@@ -31,10 +31,10 @@ from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFra
 from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
     NetworkFallbackPolicy,
-    measurable_road_points,
     road_crop,
     road_grid,
     road_homography,
+    road_points_in_view,
     road_room,
     trusted_road_plane,
 )
@@ -64,11 +64,6 @@ KEY_ROAD_PX = 6.0  # at the reference width: a step whose road moved less keeps 
 # scale is measured over a longer baseline (half of DIS's reach of about 12 px, beyond which it under-estimates
 # the road's motion: two such steps stay within it;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
-ROAD_REACH_PX = 12.0  # at the reference width: DIS under-estimates road motion that departs further from the
-# road's common shift (5 Hz clip 01 ran 10.8 % short before the road was predicted); such points are dropped
-UNPREDICTED_ROAD_BOTTOM = 0.35  # frame heights below the principal point (KITTI: 9 m ahead): without a predicted
-# road, DIS cannot follow the nearer road's stretch on a long step (5 Hz clip 01: 6.15 % with the nearer rows,
-# 3.41 % without them)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
 TIME_TOLERANCE_S = 1e-6  # timestamps from different containers differ in their last bits (0.3 against
 # 0.30000000000000004): an age compared with MAX_ROAD_KEY_S must not depend on them
@@ -112,9 +107,6 @@ class GeometryFlow:
     current: GeometryFrame
     key_prev: np.ndarray | None = None
     key_next: np.ndarray | None = None
-    road_predicted: bool = False  # the road's flow was measured beyond a predicted road homography
-    road_dis_px: np.ndarray | None = None  # (R, 2) what DIS measured of each road point's motion beyond the
-    # prediction (all of it without one), working pixels; None: exact correspondences, all within reach
 
 
 class FlowGeometryStep(WorkingFrames):
@@ -168,8 +160,6 @@ class FlowGeometryStep(WorkingFrames):
         self._previous: GeometryFrame | None = None
         self._road_prediction: np.ndarray | None = None  # road homography previous -> current, predicted
         self.key_road_px = KEY_ROAD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
-        self.road_reach_px = ROAD_REACH_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
-        self.unpredicted_road_bottom_px = float(self.K[1, 2]) + UNPREDICTED_ROAD_BOTTOM * self.working_hw[0]
         self._road_key: GeometryFrame | None = None  # where the next step's road flow starts (None: previous)
         self._key_time_s, self._key_steps = 0.0, 0
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
@@ -203,21 +193,18 @@ class FlowGeometryStep(WorkingFrames):
         """Point tracks over the whole frame (from ``prepare``) and the dense flow of the road crop from the
         road key frame (see :class:`GeometryFlow`)."""
         motion = self._undistort(current.tracked_prev), self._undistort(current.tracked_next)
-        key, predicted = self._road_key, self._road_prediction is not None
+        key = self._road_key
         if key is None or key is previous:
-            road, dis_px = self.road_flow(previous.image, current.image, self._road_prediction)
-            return GeometryFlow(*motion, self.road_px_undistorted, road, current, road_predicted=predicted,
-                                road_dis_px=dis_px)
+            road = self.road_flow(previous.image, current.image, self._road_prediction)
+            return GeometryFlow(*motion, self.road_px_undistorted, road, current)
         key_prev, key_next = track_points(key.image, current.image, key.textured_px, TRACK_WINDOW_PX)
-        road, dis_px = self.road_flow(key.image, current.image, self._road_prediction)
+        road = self.road_flow(key.image, current.image, self._road_prediction)
         return GeometryFlow(*motion, self.road_px_undistorted, road, current, self._undistort(key_prev),
-                            self._undistort(key_next), predicted, dis_px)
+                            self._undistort(key_next))
 
-    def road_flow(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None
-                  ) -> tuple[np.ndarray, np.ndarray]:
+    def road_flow(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
         """Where the road grid points of working frame ``previous`` are in ``current`` (R, 2), undistorted
-        working pixels, and how DIS moved each (R, 2), working pixels: all of its motion, or what the
-        prediction missed.
+        working pixels.
 
         With a ``prediction`` (a road homography ``previous -> current`` on undistorted working pixels: the
         default method passes the last step's plane and motion, constant velocity, where that step found the
@@ -231,8 +218,8 @@ class FlowGeometryStep(WorkingFrames):
         grid = self.road_px - self.crop_origin
         previous_crop = np.ascontiguousarray(previous[self.crop])
         if prediction is None:
-            moved = follow_flow(grid, self.estimator.estimate(previous_crop, np.ascontiguousarray(current[self.crop])))
-            return self._undistort(moved + self.crop_origin), moved - grid
+            flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[self.crop]))
+            return self._undistort(follow_flow(grid, flow) + self.crop_origin)
         height, width = previous_crop.shape
         if self.camera.distortion.is_none:
             crop_to_current = prediction @ self._crop_to_frame
@@ -240,13 +227,13 @@ class FlowGeometryStep(WorkingFrames):
                                          flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
                                          borderMode=cv2.BORDER_REPLICATE)
             moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped))
-            return _transform(moved, crop_to_current), moved - grid
+            return _transform(moved, crop_to_current)
         ideal_in_current = _transform(self._crop_ideal_px, prediction)
         source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
         source = source.reshape(height, width, 2)
         warped = cv2.remap(current, source[..., 0], source[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped))
-        return _transform(self._undistort(moved + self.crop_origin), prediction), moved - grid
+        moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped)) + self.crop_origin
+        return _transform(self._undistort(moved), prediction)
 
     def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds: the per-pair estimate
@@ -254,9 +241,7 @@ class FlowGeometryStep(WorkingFrames):
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        road_prev, road_next = measurable_road_points(
-            flow.road_prev, flow.road_next, flow.road_dis_px, self.working_hw, self.road_reach_px,
-            None if flow.road_predicted else self.unpredicted_road_bottom_px)
+        road_prev, road_next = road_points_in_view(flow.road_prev, flow.road_next, self.working_hw)
         road_moved_px = float(np.median(np.linalg.norm(road_next - road_prev, axis=1))) if len(road_prev) else 0.0
         key_is_previous = flow.key_prev is None
         key_frame = previous if key_is_previous else self._road_key
