@@ -116,6 +116,13 @@ def test_no_plane_without_enough_points_below_the_camera():
     assert fit_road_plane(np.array([[0.0, -1.0, 5.0]] * 50)) is None
 
 
+def test_no_plane_when_no_road_point_is_left():
+    _, road, R, t = scene_and_motion(step_m=1.0)
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
+    none = np.zeros((0, 2), np.float32)
+    assert trusted_road_plane(none, none, K, motion, min_parallax_px=1.0) is None
+
+
 def test_textured_points_pick_the_strongest_gradient_of_their_cells():
     image = np.full((188, 620), 20, np.uint8)
     image[40:44, 100:104] = 255  # one bright square: its corners are the strongest gradients

@@ -16,6 +16,7 @@ from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulat
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
 GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
+MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 
 
 def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
@@ -95,7 +96,7 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     """
     total = len(points)
     points = points[(points[:, 2] > 0) & (points[:, 1] > 0)]
-    if len(points) < 20:
+    if len(points) < MIN_ROAD_POINTS:
         return None
     rng = np.random.default_rng(seed)
     triples = points[rng.integers(0, len(points), size=(iterations, 3))]
@@ -136,6 +137,8 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
     than ``min_parallax_px`` (pixels) beyond what the rotation explains: a road whose flow is lost (no
     texture, a car right in front moving along) has no depth to triangulate (the nearest rows move most,
     hence the 90th percentile: at walking pace the far rows barely move)."""
+    if len(points_prev) < MIN_ROAD_POINTS:  # every road point left the frame, say
+        return None
     if min_parallax_px and np.percentile(translation_parallax_px(points_prev, points_next, K, motion.R),
                                          90) < min_parallax_px:
         return None
