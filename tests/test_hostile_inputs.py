@@ -72,7 +72,7 @@ def video(path: Path, frames: int, width: int, height: int) -> Path:
 
 @pytest.mark.parametrize("cx, cy, says", [("300", "235", "no room for the road crop"),
                                           ("595", "100", "no room for the road crop"),
-                                          ("300", "100", None)])
+                                          ("300", "100", None), ("300", "140", None)])
 def test_principal_point_without_room_for_the_road_is_one_line_before_writing(tmp_path, capsys, cx, cy, says):
     clip = video(tmp_path / "v.mp4", 3, 600, 240)
     args = ["run", "--video", clip, "--fx", "300", "--fy", "300", "--cx", cx, "--cy", cy, "--out", tmp_path / "o"]

@@ -15,17 +15,20 @@ from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulat
 
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
+ROAD_ROWS_NEEDED = 0.35  # frame heights below the principal point the grid must find inside the frame; the
+# nearer rows are read where the frame holds them
 GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
 MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 
 
 def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
     """Why the road grid does not fit in a frame of ``image_hw`` (pixels) with intrinsics ``K``, or None
-    when it does: its rows ``cy + ROAD_ROWS * H`` and columns ``cx +- ROAD_HALF_WIDTH * W`` must lie
-    inside the frame (a principal point near the border leaves no road to measure)."""
+    when it does: its rows from ``cy + ROAD_ROWS[0] * H`` to at least ``cy + ROAD_ROWS_NEEDED * H`` and its
+    columns ``cx +- ROAD_HALF_WIDTH * W`` must lie inside the frame (a principal point near the border
+    leaves no road to measure)."""
     h, w = image_hw
     cx, cy = float(K[0, 2]), float(K[1, 2])
-    max_cy = h - GRID_MARGIN_PX - ROAD_ROWS[1] * h
+    max_cy = h - GRID_MARGIN_PX - ROAD_ROWS_NEEDED * h
     cx_range = (ROAD_HALF_WIDTH * w + GRID_MARGIN_PX, w - GRID_MARGIN_PX - ROAD_HALF_WIDTH * w)
     if cy <= max_cy and cx_range[0] <= cx <= cx_range[1]:
         return None
