@@ -23,6 +23,7 @@ import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
 from flowvo.drive import RunOptions, open_drive
+from flowvo.geometry import so3_exp
 from flowvo.methods.base import WorkingFrames
 from flowvo.methods.flowvo import TRACK_WINDOW_PX, FlowGeometryStep
 from flowvo.road_scale import RoadPlane, road_homography, trusted_road_plane
@@ -39,8 +40,7 @@ TRACK_YAWS_DEG = (0.2, 0.5, 1.0, 2.0)
 def road_motion(step_m: float, yaw_rad: float) -> EssentialMotion:
     """The camera moves ``step_m`` along its optical axis, then turns by ``yaw_rad`` (to the right):
     ``R_next_prev`` and the unit translation, in the next camera's frame."""
-    c, s = np.cos(yaw_rad), np.sin(yaw_rad)
-    R = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
+    R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
     t = -R @ np.array([0.0, 0.0, step_m])
     return EssentialMotion(R, t / step_m, np.ones(1, bool))
 
@@ -68,8 +68,7 @@ def road_length_errors(step: FlowGeometryStep, images: list[np.ndarray], K_full:
     errors = []
     for image in images:
         previous, current = warped_pair(step, image, K_full, flat_road_homography(K_full, step_m, yaw_rad))
-        moved = step.road_flow(previous, current, predicted)
-        plane = trusted_road_plane(step.road_px_undistorted, moved, step.K, road_motion(step_m, yaw_rad))
+        plane = trusted_road_plane(*step.road_flow(previous, current, predicted), step.K, road_motion(step_m, yaw_rad))
         errors.append(np.nan if plane is None else CAMERA_HEIGHT_M / plane.distance / step_m - 1.0)
     return np.array(errors)
 
@@ -77,7 +76,7 @@ def road_length_errors(step: FlowGeometryStep, images: list[np.ndarray], K_full:
 def track_errors(step: FlowGeometryStep, images: list[np.ndarray], K_full: np.ndarray, yaw_deg: float
                  ) -> np.ndarray:
     """Per image, the median relative error of the tracked motion along the exact one under a pure yaw."""
-    rotation = road_motion(1e-9, np.radians(yaw_deg)).R
+    rotation = so3_exp(np.array([0.0, np.radians(yaw_deg), 0.0]))
     errors = []
     for image in images:
         previous, current = warped_pair(step, image, K_full, K_full @ rotation @ np.linalg.inv(K_full))

@@ -95,7 +95,7 @@ class GeometryFrame:
 class GeometryFlow:
     """What the default method measures between two working frames, in undistorted pixels: ``motion_prev``
     -> ``motion_next`` (M, 2) tracked textured points for the rotation and translation direction, and
-    ``road_prev`` -> ``road_next`` (R, 2) road-band points moved by the dense flow field of the road crop
+    ``road_prev`` -> ``road_next`` (R, 2) road-band points that stay in view, moved by the dense flow of the road crop
     from the road key frame (the previous frame, or an earlier one while the road moves little) to the
     current one, with ``key_prev`` -> ``key_next`` the key frame's textured points tracked into the current
     frame (None when the key frame is the previous frame)."""
@@ -195,16 +195,17 @@ class FlowGeometryStep(WorkingFrames):
         motion = self._undistort(current.tracked_prev), self._undistort(current.tracked_next)
         key = self._road_key
         if key is None or key is previous:
-            road = self.road_flow(previous.image, current.image, self._road_prediction)
-            return GeometryFlow(*motion, self.road_px_undistorted, road, current)
+            return GeometryFlow(*motion, *self.road_flow(previous.image, current.image, self._road_prediction),
+                                current)
         key_prev, key_next = track_points(key.image, current.image, key.textured_px, TRACK_WINDOW_PX)
-        road = self.road_flow(key.image, current.image, self._road_prediction)
-        return GeometryFlow(*motion, self.road_px_undistorted, road, current, self._undistort(key_prev),
-                            self._undistort(key_next))
+        return GeometryFlow(*motion, *self.road_flow(key.image, current.image, self._road_prediction), current,
+                            self._undistort(key_prev), self._undistort(key_next))
 
-    def road_flow(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
-        """Where the road grid points of working frame ``previous`` are in ``current`` (R, 2), undistorted
-        working pixels.
+    def road_flow(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+        """The road grid points of working frame ``previous`` that stay in view, and where they are in
+        ``current``, each (R, 2), undistorted working pixels (:func:`road_points_in_view`: the nearest road
+        leaves the frame on a long step).
 
         With a ``prediction`` (a road homography ``previous -> current`` on undistorted working pixels: the
         default method passes the last step's plane and motion, constant velocity, where that step found the
@@ -215,6 +216,12 @@ class FlowGeometryStep(WorkingFrames):
         scattered less (inter-quartile range 4.7 against 7.1 %, with dis-medium-fine) than when only road
         motion over 12 px was predicted. The homography acts on undistorted pixels; with lens
         distortion the warp goes through the lens."""
+        return road_points_in_view(self.road_px_undistorted, self._road_moved(previous, current, prediction),
+                                   self.working_hw)
+
+    def _road_moved(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
+        """Where every road grid point of ``previous`` is in ``current`` (R, 2), undistorted working pixels
+        (see :meth:`road_flow`)."""
         grid = self.road_px - self.crop_origin
         previous_crop = np.ascontiguousarray(previous[self.crop])
         if prediction is None:
@@ -241,8 +248,8 @@ class FlowGeometryStep(WorkingFrames):
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        road_prev, road_next = road_points_in_view(flow.road_prev, flow.road_next, self.working_hw)
-        road_moved_px = float(np.median(np.linalg.norm(road_next - road_prev, axis=1))) if len(road_prev) else 0.0
+        road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1))) \
+            if len(flow.road_prev) else 0.0
         key_is_previous = flow.key_prev is None
         key_frame = previous if key_is_previous else self._road_key
         key_time_s = times_s[0] if key_is_previous else self._key_time_s
@@ -262,7 +269,7 @@ class FlowGeometryStep(WorkingFrames):
             return self.last_motion
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
-        plane = None if key_fit is None else trusted_road_plane(road_prev, road_next, self.K, key_fit,
+        plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
                                                                 min_parallax_px=self.min_road_parallax_px)
         # the road's length since the key frame, as this step's share at the speed it gives
         step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
