@@ -9,7 +9,9 @@ import json
 import math
 import numbers
 import os
+import signal
 import tempfile
+import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -23,6 +25,21 @@ def _default_permissions(path: str) -> None:
     os.chmod(path, 0o666 & ~umask)
 
 
+@contextmanager
+def _interrupts_held() -> Iterator[None]:
+    """Ctrl-C (SIGINT) held back, where the platform and thread allow it (POSIX, main thread), and delivered
+    once the block ends: a temporary file is created and its name kept before an interruption can land
+    between the two and leave the file behind (seen once in 2-worker ``flowvo synth`` runs)."""
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
+
+
 def _named(error: OSError, target: Path) -> OSError:
     """``error`` naming ``target`` when it names no file (a full disk fails a write(), which has none)."""
     if error.filename is None:
@@ -33,24 +50,10 @@ def _named(error: OSError, target: Path) -> OSError:
 @contextmanager
 def atomic_open(path: str | Path, mode: str = "w") -> Iterator[IO[Any]]:
     """Open a temporary file for writing that replaces ``path`` only when the block succeeds."""
-    target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, mode) as handle:
-            yield handle
-            handle.flush()
-            os.fsync(handle.fileno())
-        _default_permissions(tmp_name)
-        os.replace(tmp_name, target)
-    except OSError as error:
-        if os.path.exists(tmp_name):
-            os.unlink(tmp_name)
-        raise _named(error, target) from None
-    except BaseException:
-        if os.path.exists(tmp_name):
-            os.unlink(tmp_name)
-        raise
+    with atomic_path(path) as tmp, open(tmp, mode) as handle:
+        yield handle
+        handle.flush()
+        os.fsync(handle.fileno())
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:
@@ -91,17 +94,19 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent)
-    os.close(fd)
+    tmp_name = None
     try:
+        with _interrupts_held():  # the name is kept before a Ctrl-C can land, and the cleanup below sees it
+            fd, tmp_name = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=target.suffix, dir=target.parent)
+        os.close(fd)
         yield Path(tmp_name)
         _default_permissions(tmp_name)
         os.replace(tmp_name, target)
     except OSError as error:
-        if os.path.exists(tmp_name):
+        if tmp_name is not None and os.path.exists(tmp_name):
             os.unlink(tmp_name)
         raise _named(error, target) from None
     except BaseException:
-        if os.path.exists(tmp_name):
+        if tmp_name is not None and os.path.exists(tmp_name):
             os.unlink(tmp_name)
         raise
