@@ -12,6 +12,7 @@ from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
 from flowvo.road_scale import (
     NetworkFallbackPolicy,
+    RoadNormal,
     RoadPlane,
     road_homography,
     trusted_road_plane,
@@ -150,7 +151,8 @@ def test_road_flow_of_an_exactly_moved_road_gives_its_step_length(predicted_m):
     motion = EssentialMotion(R, -R @ np.array([0.0, 0.0, 1.0]), np.ones(1, bool))
 
     def moved_by(length_m):
-        return road_homography(step.K, motion, RoadPlane(CAMERA.height_m / length_m, np.array([0.0, 1.0, 0.0]), 1.0))
+        return road_homography(step.K, motion, RoadPlane(CAMERA.height_m / length_m, np.array([0.0, 1.0, 0.0]), 1.0,
+                                                            np.array([0.0, CAMERA.height_m / length_m, 0.0])))
 
     texture = np.random.default_rng(3).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
     previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
@@ -169,3 +171,39 @@ def test_speed_window_spans_the_same_time_at_any_frame_rate(rate_hz, window):
     for k in range(60):
         prior.update(k / rate_hz, 10.0)
     assert prior._history.maxlen == window
+
+
+def _plane_through(centre: np.ndarray, pitch_rad: float) -> RoadPlane:
+    """A road plane through ``centre`` (camera frame) whose normal is pitched by ``pitch_rad`` about x."""
+    normal = np.array([0.0, np.cos(pitch_rad), np.sin(pitch_rad)])
+    return RoadPlane(float(normal @ centre), normal, 0.5, centre)
+
+
+def test_a_smoothed_road_normal_takes_the_distance_through_the_fits_centre_along_the_carried_normal():
+    road = RoadNormal(memory=0.8)
+    centre = np.array([0.0, 1.0, 6.0])  # the near road, 6 step lengths ahead, 1 below
+    first = road.smoothed(_plane_through(centre, 0.0), np.eye(3))
+    assert first.distance == pytest.approx(1.0)  # nothing carried yet: the plane as fitted
+    tilted = road.smoothed(_plane_through(centre, np.radians(1.0)), np.eye(3))  # one fit pitched by 1 degree
+    assert _plane_through(centre, np.radians(1.0)).distance == pytest.approx(1.0 + 6.0 * np.radians(1.0), rel=1e-3)
+    assert np.degrees(np.arctan2(tilted.normal[2], tilted.normal[1])) == pytest.approx(0.2, abs=1e-3)
+    assert tilted.distance == pytest.approx(float(tilted.normal @ centre))
+    assert abs(tilted.distance - 1.0) < 0.25 * 6.0 * np.radians(1.0)
+
+
+def test_the_road_normal_is_carried_by_the_camera_rotation():
+    road = RoadNormal(memory=0.8)
+    centre = np.array([0.0, 1.0, 6.0])
+    road.smoothed(_plane_through(centre, 0.0), np.eye(3))
+    pitch = so3_exp(np.array([np.radians(2.0), 0.0, 0.0]))  # the camera pitches: the road turns the other way
+    road.advance(pitch)
+    np.testing.assert_allclose(road.normal, pitch @ np.array([0.0, 1.0, 0.0]))
+    seen = pitch @ np.array([0.0, 1.0, 0.0])
+    plane = road.smoothed(RoadPlane(float(seen @ centre), seen, 0.5, centre), np.eye(3))  # the same road, measured
+    np.testing.assert_allclose(plane.normal, seen, atol=1e-12)
+    key_rotation = so3_exp(np.array([0.0, np.radians(3.0), 0.0]))  # a plane measured in an earlier key frame
+    in_key = road.smoothed(RoadPlane(float(key_rotation.T @ seen @ centre), key_rotation.T @ seen, 0.5, centre),
+                           key_rotation)
+    np.testing.assert_allclose(in_key.normal, key_rotation.T @ seen, atol=1e-12)
+    road.forget()
+    assert road.normal is None

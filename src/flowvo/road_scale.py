@@ -75,11 +75,13 @@ def road_points_in_view(points_prev: np.ndarray, points_next: np.ndarray, image_
 @dataclass(frozen=True)
 class RoadPlane:
     """A plane ``normal . X = distance`` (camera frame, unit normal with n_y > 0) fitted to road points,
-    and the fraction of the points within the inlier tolerance."""
+    the fraction of the points within the inlier tolerance, and ``centre``, the point of the plane its fit
+    pivots about (the inliers' weighted centroid)."""
 
     distance: float
     normal: np.ndarray
     inlier_fraction: float
+    centre: np.ndarray
 
     @property
     def tilt_rad(self) -> float:
@@ -126,7 +128,7 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     centre = weights @ inliers
     normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None])[2][2]
     normal = normal if normal[1] > 0 else -normal
-    return RoadPlane(float(normal @ centre), normal, len(inliers) / total)
+    return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre)
 
 
 def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
@@ -150,6 +152,46 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
             or plane.inlier_fraction < min_inlier_fraction:
         return None
     return plane
+
+
+NORMAL_MEMORY = 0.8  # the weight of the road normal carried over from earlier planes (real clips, single road
+# lengths against the truth, median / inter-quartile range over 01, 06, 07: memory 0 (each step's own normal)
+# -1.7 / 2.6, -0.0 / 1.6, -0.3 / 4.3 %; 0.8: -0.3 / 1.7, -0.1 / 1.5, +0.3 / 3.7 %; 0.95 lags: +3.4 / 2.4 % on 01)
+
+
+class RoadNormal:
+    """The road's normal in the camera frame, smoothed over the trusted road planes.
+
+    One step's fit tilts its plane about the centre of its near road points: a pitch error of 1 degree moves
+    the plane's distance under the camera by 3.5-7.5 % (real clips), and its fitted pitch scatters by
+    0.3-0.7 degrees. The road's normal in the camera frame changes only as the camera turns, which the
+    tracked points measure far better, and as the road's grade changes, slowly. So the normal is carried
+    from frame to frame by the measured rotation and blended with each new plane's (weight
+    ``1 - memory``); the plane's distance is then taken through its own centre along that normal.
+    """
+
+    def __init__(self, memory: float = NORMAL_MEMORY) -> None:
+        self.memory = memory
+        self.normal: np.ndarray | None = None  # unit, in the current frame
+
+    def advance(self, R_next_prev: np.ndarray) -> None:
+        """Carry the normal into the next frame (``R_next_prev`` the step's rotation)."""
+        if self.normal is not None:
+            self.normal = R_next_prev @ self.normal
+
+    def forget(self) -> None:
+        """No rotation was measured: the next plane starts afresh."""
+        self.normal = None
+
+    def smoothed(self, plane: RoadPlane, R_current_plane: np.ndarray) -> RoadPlane:
+        """``plane`` (in the frame of its key frame, ``R_current_plane`` the rotation from it to the current
+        frame) through its centre along the smoothed normal; that normal is kept (current frame)."""
+        normal = plane.normal
+        if self.normal is not None:
+            normal = self.memory * (R_current_plane.T @ self.normal) + (1.0 - self.memory) * plane.normal
+            normal /= np.linalg.norm(normal)
+        self.normal = R_current_plane @ normal
+        return RoadPlane(float(normal @ plane.centre), normal, plane.inlier_fraction, plane.centre)
 
 
 def road_step_length_m(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,

@@ -31,6 +31,7 @@ from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFra
 from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
     NetworkFallbackPolicy,
+    RoadNormal,
     road_crop,
     road_grid,
     road_homography,
@@ -151,6 +152,7 @@ class FlowGeometryStep(WorkingFrames):
         self.still_flow_px = STILL_FLOW_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.speed = SpeedPrior()
+        self.road_normal = RoadNormal()
         self.last_motion = np.eye(4)
         # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios
         self._last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None = None
@@ -262,6 +264,7 @@ class FlowGeometryStep(WorkingFrames):
             return self.last_motion
         fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)
         if fit is None:  # degenerate: keep the last motion (constant velocity)
+            self.road_normal.forget()
             T_next_prev = invert_se3(self.last_motion)
             length_m = float(np.linalg.norm(T_next_prev[:3, 3]))
             self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
@@ -269,8 +272,11 @@ class FlowGeometryStep(WorkingFrames):
             return self.last_motion
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
+        self.road_normal.advance(fit.R)
         plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
                                                                 min_parallax_px=self.min_road_parallax_px)
+        if plane is not None:
+            plane = self.road_normal.smoothed(plane, key_fit.R)
         # the road's length since the key frame, as this step's share at the speed it gives
         step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
         key_young = time_s - key_time_s < MAX_ROAD_KEY_S - TIME_TOLERANCE_S
