@@ -275,7 +275,7 @@ class FlowGeometryStep(WorkingFrames):
         self.road_normal.advance(fit.R)
         plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
                                                                 min_parallax_px=self.min_road_parallax_px)
-        if plane is not None:
+        if plane is not None and key_is_previous:  # a key frame's road is fitted again each step: counted once
             plane = self.road_normal.smoothed(plane, key_fit.R)
         # the road's length since the key frame, as this step's share at the speed it gives
         step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
