@@ -11,6 +11,7 @@ from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
 from flowvo.road_scale import (
+    FIT_REFERENCE_DEPTH,
     NetworkFallbackPolicy,
     RoadNormal,
     RoadPlane,
@@ -179,31 +180,45 @@ def _plane_through(centre: np.ndarray, pitch_rad: float) -> RoadPlane:
     return RoadPlane(float(normal @ centre), normal, 0.5, centre)
 
 
-def test_a_smoothed_road_normal_takes_the_distance_through_the_fits_centre_along_the_carried_normal():
-    road = RoadNormal(memory=0.8)
-    centre = np.array([0.0, 1.0, 6.0])  # the near road, 6 step lengths ahead, 1 below
-    first = road.smoothed(_plane_through(centre, 0.0), np.eye(3))
-    assert first.distance == pytest.approx(1.0)  # nothing carried yet: the plane as fitted
-    tilted = road.smoothed(_plane_through(centre, np.radians(1.0)), np.eye(3))  # one fit pitched by 1 degree
-    assert _plane_through(centre, np.radians(1.0)).distance == pytest.approx(1.0 + 6.0 * np.radians(1.0), rel=1e-3)
-    assert np.degrees(np.arctan2(tilted.normal[2], tilted.normal[1])) == pytest.approx(0.2, abs=1e-3)
-    assert tilted.distance == pytest.approx(float(tilted.normal @ centre))
-    assert abs(tilted.distance - 1.0) < 0.25 * 6.0 * np.radians(1.0)
+def _pitch_rad(plane: RoadPlane) -> float:
+    return float(np.arctan2(plane.normal[2], plane.normal[1]))
 
 
-def test_the_road_normal_is_carried_by_the_camera_rotation():
-    road = RoadNormal(memory=0.8)
-    centre = np.array([0.0, 1.0, 6.0])
+def test_a_road_normal_blends_each_plane_by_the_variances_and_takes_the_distance_through_its_centre():
+    road = RoadNormal(fit_sigma_rad=0.005, drift_rad=0.0035)
+    near = np.array([0.0, 1.0, FIT_REFERENCE_DEPTH])  # the road's centre 7.4 step lengths ahead, 1 below
+    first = road.smoothed(_plane_through(near, 0.0), np.eye(3))
+    assert first.distance == pytest.approx(1.0) and road.variance == pytest.approx(0.005**2)  # the plane as fitted
+    road.advance(np.eye(3), 0.1)
+    carried = 0.005**2 + 0.0035**2 * 0.1
+    gain = carried / (carried + 0.005**2)
+    tilted = road.smoothed(_plane_through(near, np.radians(1.0)), np.eye(3))  # one fit pitched by 1 degree
+    assert _pitch_rad(tilted) == pytest.approx(gain * np.radians(1.0), rel=1e-3)
+    assert tilted.distance == pytest.approx(float(tilted.normal @ near))
+    assert road.variance == pytest.approx((1 - gain) * carried)
+    road.advance(np.eye(3), 0.1)
+    far = road.smoothed(_plane_through(np.array([0.0, 1.0, 5 * FIT_REFERENCE_DEPTH]), np.radians(1.0)), np.eye(3))
+    assert abs(_pitch_rad(far) - _pitch_rad(tilted)) < 0.01 * np.radians(1.0)  # 5x the depth: 625x the variance
+
+
+def test_the_road_normal_is_carried_by_the_camera_rotation_and_kept_only_from_predicted_road():
+    road = RoadNormal()
+    centre = np.array([0.0, 1.0, FIT_REFERENCE_DEPTH])
     road.smoothed(_plane_through(centre, 0.0), np.eye(3))
     pitch = so3_exp(np.array([np.radians(2.0), 0.0, 0.0]))  # the camera pitches: the road turns the other way
-    road.advance(pitch)
-    np.testing.assert_allclose(road.normal, pitch @ np.array([0.0, 1.0, 0.0]))
+    road.advance(pitch, 0.1)
     seen = pitch @ np.array([0.0, 1.0, 0.0])
+    np.testing.assert_allclose(road.normal, seen)
     plane = road.smoothed(RoadPlane(float(seen @ centre), seen, 0.5, centre), np.eye(3))  # the same road, measured
     np.testing.assert_allclose(plane.normal, seen, atol=1e-12)
     key_rotation = so3_exp(np.array([0.0, np.radians(3.0), 0.0]))  # a plane measured in an earlier key frame
     in_key = road.smoothed(RoadPlane(float(key_rotation.T @ seen @ centre), key_rotation.T @ seen, 0.5, centre),
                            key_rotation)
     np.testing.assert_allclose(in_key.normal, key_rotation.T @ seen, atol=1e-12)
+    kept, variance = road.normal.copy(), road.variance
+    unpredicted = road.smoothed(_plane_through(centre, np.radians(3.0)), np.eye(3), keep=False)
+    assert _pitch_rad(plane) < _pitch_rad(unpredicted) < np.radians(3.0)  # blended, between the two
+    np.testing.assert_array_equal(road.normal, kept)
+    assert road.variance == variance
     road.forget()
     assert road.normal is None

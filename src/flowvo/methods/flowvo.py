@@ -61,9 +61,10 @@ TRACK_WINDOW_PX = 11  # Lucas-Kanade window: half the cost of 15 px windows, rot
 # 1.21 / 0.69 / 0.59 %)
 MIN_FRAME_WIDTH_PX = 128  # measured on 20 frames of clip 06 (23.6 m) resized: 128x90 px gave 24.0 m, 96x90
 # 29.7 m, 64x90 a standstill (too few road and tracked points to fit anything)
-KEY_ROAD_PX = 6.0  # at the reference width: a step whose road moved less keeps its road key frame, so the road
-# scale is measured over a longer baseline (half of DIS's reach of about 12 px, beyond which it under-estimates
-# the road's motion: two such steps stay within it;
+DIS_REACH_PX = 12.0  # at the reference width: road motion DIS follows without a prediction; beyond, it
+# under-estimates it
+KEY_ROAD_PX = DIS_REACH_PX / 2  # a step whose road moved less keeps its road key frame, so the road scale is
+# measured over a longer baseline (two such steps stay within DIS's reach;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
 TIME_TOLERANCE_S = 1e-6  # timestamps from different containers differ in their last bits (0.3 against
@@ -162,6 +163,7 @@ class FlowGeometryStep(WorkingFrames):
         self._previous: GeometryFrame | None = None
         self._road_prediction: np.ndarray | None = None  # road homography previous -> current, predicted
         self.key_road_px = KEY_ROAD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
+        self.dis_reach_px = DIS_REACH_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self._road_key: GeometryFrame | None = None  # where the next step's road flow starts (None: previous)
         self._key_time_s, self._key_steps = 0.0, 0
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
@@ -253,6 +255,8 @@ class FlowGeometryStep(WorkingFrames):
         road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1))) \
             if len(flow.road_prev) else 0.0
         key_is_previous = flow.key_prev is None
+        # the road's flow was measured well: from a prediction (this step's flow started from it), or within reach
+        road_measured = self._road_prediction is not None or road_moved_px < self.dis_reach_px
         key_frame = previous if key_is_previous else self._road_key
         key_time_s = times_s[0] if key_is_previous else self._key_time_s
         key_steps = 1 if key_is_previous else self._key_steps + 1
@@ -272,11 +276,11 @@ class FlowGeometryStep(WorkingFrames):
             return self.last_motion
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
-        self.road_normal.advance(fit.R)
+        self.road_normal.advance(fit.R, dt_s)
         plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
                                                                 min_parallax_px=self.min_road_parallax_px)
-        if plane is not None and key_is_previous:  # a key frame's road is fitted again each step: counted once
-            plane = self.road_normal.smoothed(plane, key_fit.R)
+        if plane is not None:
+            plane = self.road_normal.smoothed(plane, key_fit.R, keep=road_measured)
         # the road's length since the key frame, as this step's share at the speed it gives
         step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
         key_young = time_s - key_time_s < MAX_ROAD_KEY_S - TIME_TOLERANCE_S
