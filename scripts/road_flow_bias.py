@@ -47,8 +47,7 @@ def road_motion(step_m: float, yaw_rad: float) -> EssentialMotion:
 
 def flat_road_homography(K: np.ndarray, step_m: float, yaw_rad: float) -> np.ndarray:
     """Pixels of the flat road (``CAMERA_HEIGHT_M`` below the first camera) in the first frame -> the second."""
-    plane = RoadPlane(CAMERA_HEIGHT_M / step_m, np.array([0.0, 1.0, 0.0]), 1.0,
-                      np.array([0.0, CAMERA_HEIGHT_M / step_m, 0.0]))  # distance in step lengths
+    plane = RoadPlane.level(CAMERA_HEIGHT_M / step_m)  # distance in step lengths
     return road_homography(K, road_motion(step_m, yaw_rad), plane)
 
 

@@ -152,8 +152,7 @@ def test_road_flow_of_an_exactly_moved_road_gives_its_step_length(predicted_m):
     motion = EssentialMotion(R, -R @ np.array([0.0, 0.0, 1.0]), np.ones(1, bool))
 
     def moved_by(length_m):
-        return road_homography(step.K, motion, RoadPlane(CAMERA.height_m / length_m, np.array([0.0, 1.0, 0.0]), 1.0,
-                                                            np.array([0.0, CAMERA.height_m / length_m, 0.0])))
+        return road_homography(step.K, motion, RoadPlane.level(CAMERA.height_m / length_m))
 
     texture = np.random.default_rng(3).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
     previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
@@ -174,10 +173,14 @@ def test_speed_window_spans_the_same_time_at_any_frame_rate(rate_hz, window):
     assert prior._history.maxlen == window
 
 
-def _plane_through(centre: np.ndarray, pitch_rad: float) -> RoadPlane:
-    """A road plane through ``centre`` (camera frame) whose normal is pitched by ``pitch_rad`` about x."""
-    normal = np.array([0.0, np.cos(pitch_rad), np.sin(pitch_rad)])
+def _plane_through(centre: np.ndarray, normal: np.ndarray) -> RoadPlane:
+    """The road plane through ``centre`` (camera frame) with unit ``normal``."""
     return RoadPlane(float(normal @ centre), normal, 0.5, centre)
+
+
+def _pitched(pitch_rad: float) -> np.ndarray:
+    """The camera's down axis pitched by ``pitch_rad`` about x."""
+    return np.array([0.0, np.cos(pitch_rad), np.sin(pitch_rad)])
 
 
 def _pitch_rad(plane: RoadPlane) -> float:
@@ -187,36 +190,36 @@ def _pitch_rad(plane: RoadPlane) -> float:
 def test_a_road_normal_blends_each_plane_by_the_variances_and_takes_the_distance_through_its_centre():
     road = RoadNormal(fit_sigma_rad=0.005, drift_rad=0.0035)
     near = np.array([0.0, 1.0, FIT_REFERENCE_DEPTH])  # the road's centre 7.4 step lengths ahead, 1 below
-    first = road.smoothed(_plane_through(near, 0.0), np.eye(3))
+    first = road.smoothed(_plane_through(near, _pitched(0.0)), np.eye(3))
     assert first.distance == pytest.approx(1.0) and road.variance == pytest.approx(0.005**2)  # the plane as fitted
     road.advance(np.eye(3), 0.1)
     carried = 0.005**2 + 0.0035**2 * 0.1
     gain = carried / (carried + 0.005**2)
-    tilted = road.smoothed(_plane_through(near, np.radians(1.0)), np.eye(3))  # one fit pitched by 1 degree
+    tilted = road.smoothed(_plane_through(near, _pitched(np.radians(1.0))), np.eye(3))  # one fit pitched by 1 degree
     assert _pitch_rad(tilted) == pytest.approx(gain * np.radians(1.0), rel=1e-3)
     assert tilted.distance == pytest.approx(float(tilted.normal @ near))
     assert road.variance == pytest.approx((1 - gain) * carried)
     road.advance(np.eye(3), 0.1)
-    far = road.smoothed(_plane_through(np.array([0.0, 1.0, 5 * FIT_REFERENCE_DEPTH]), np.radians(1.0)), np.eye(3))
+    far_centre = np.array([0.0, 1.0, 5 * FIT_REFERENCE_DEPTH])
+    far = road.smoothed(_plane_through(far_centre, _pitched(np.radians(1.0))), np.eye(3))
     assert abs(_pitch_rad(far) - _pitch_rad(tilted)) < 0.01 * np.radians(1.0)  # 5x the depth: 625x the variance
 
 
 def test_the_road_normal_is_carried_by_the_camera_rotation_and_kept_only_from_predicted_road():
     road = RoadNormal()
     centre = np.array([0.0, 1.0, FIT_REFERENCE_DEPTH])
-    road.smoothed(_plane_through(centre, 0.0), np.eye(3))
+    road.smoothed(_plane_through(centre, _pitched(0.0)), np.eye(3))
     pitch = so3_exp(np.array([np.radians(2.0), 0.0, 0.0]))  # the camera pitches: the road turns the other way
     road.advance(pitch, 0.1)
     seen = pitch @ np.array([0.0, 1.0, 0.0])
     np.testing.assert_allclose(road.normal, seen)
-    plane = road.smoothed(RoadPlane(float(seen @ centre), seen, 0.5, centre), np.eye(3))  # the same road, measured
+    plane = road.smoothed(_plane_through(centre, seen), np.eye(3))  # the same road, measured
     np.testing.assert_allclose(plane.normal, seen, atol=1e-12)
     key_rotation = so3_exp(np.array([0.0, np.radians(3.0), 0.0]))  # a plane measured in an earlier key frame
-    in_key = road.smoothed(RoadPlane(float(key_rotation.T @ seen @ centre), key_rotation.T @ seen, 0.5, centre),
-                           key_rotation)
+    in_key = road.smoothed(_plane_through(centre, key_rotation.T @ seen), key_rotation)
     np.testing.assert_allclose(in_key.normal, key_rotation.T @ seen, atol=1e-12)
     kept, variance = road.normal.copy(), road.variance
-    unpredicted = road.smoothed(_plane_through(centre, np.radians(3.0)), np.eye(3), keep=False)
+    unpredicted = road.smoothed(_plane_through(centre, _pitched(np.radians(3.0))), np.eye(3), keep=False)
     assert _pitch_rad(plane) < _pitch_rad(unpredicted) < np.radians(3.0)  # blended, between the two
     np.testing.assert_array_equal(road.normal, kept)
     assert road.variance == variance

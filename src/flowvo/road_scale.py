@@ -83,6 +83,11 @@ class RoadPlane:
     inlier_fraction: float
     centre: np.ndarray
 
+    @classmethod
+    def level(cls, distance: float) -> RoadPlane:
+        """The road straight below the camera's down axis at ``distance``, every point an inlier."""
+        return cls(distance, np.array([0.0, 1.0, 0.0]), 1.0, np.array([0.0, distance, 0.0]))
+
     @property
     def tilt_rad(self) -> float:
         """Angle between the plane's normal and the camera's down axis (pitch and roll of the road)."""
