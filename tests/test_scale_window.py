@@ -7,7 +7,14 @@ import pytest
 
 from flowvo.geometry import invert_se3, so3_exp
 from flowvo.scale_propagation import step_length_ratio
-from flowvo.scale_window import CONVERGED_LOG, ROAD_SIGMA, ScaleWindow, StepScale, robust_log_lengths
+from flowvo.scale_window import (
+    CONVERGED_LOG,
+    ROAD_SIGMA,
+    ScaleWindow,
+    StepScale,
+    carried_prior,
+    robust_log_lengths,
+)
 from flowvo.two_view import EssentialMotion, se3_next_prev
 
 K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])
@@ -35,7 +42,28 @@ def test_three_views_give_the_exact_ratio_of_the_step_lengths():
     a, b, c = project(scene_a), project(to_b), project(to_c)
     everyone = np.ones(200, bool)
     ratio = step_length_ratio((a, b), EssentialMotion(R1, t1, everyone), (b, c), EssentialMotion(R2, t2, everyone), K)
-    assert ratio == pytest.approx(1.1 / 0.8, rel=1e-9)
+    assert ratio.ratio == pytest.approx(1.1 / 0.8, rel=1e-9)
+    assert ratio.log_sigma < 1e-9  # every point gives the same ratio
+
+
+def test_the_ratio_of_noisy_tracks_comes_with_its_standard_error():
+    """Tracks with 0.3 px of noise: the ratio is off by about its standard error, which grows with the noise."""
+    rng = np.random.default_rng(5)
+    scene_a = np.c_[rng.uniform(-10, 10, 300), rng.uniform(-3, 1.5, 300), rng.uniform(6, 40, 300)]
+    R1, t1, T_ba = step(0.02, 0.8)
+    R2, t2, T_cb = step(-0.03, 1.1)
+    to_b = scene_a @ T_ba[:3, :3].T + T_ba[:3, 3]
+    a, b, c = project(scene_a), project(to_b), project(to_b @ T_cb[:3, :3].T + T_cb[:3, 3])
+    everyone = np.ones(300, bool)
+
+    def measured(noise_px):
+        a_, b_, c_ = (p + rng.normal(0.0, noise_px, p.shape) for p in (a, b, c))
+        return step_length_ratio((a_, b_), EssentialMotion(R1, t1, everyone), (b_, c_),
+                                 EssentialMotion(R2, t2, everyone), K)
+
+    slight, strong = measured(0.1), measured(0.3)
+    assert 0.0 < slight.log_sigma < strong.log_sigma < 0.05
+    assert abs(np.log(strong.ratio / (1.1 / 0.8))) < 3.0 * strong.log_sigma
 
 
 def test_three_views_without_parallax_give_no_ratio():
@@ -176,3 +204,47 @@ def test_the_robust_solve_is_the_minimum_scipy_finds_under_the_cauchy_loss():
     np.testing.assert_allclose(solved, reference, atol=CONVERGED_LOG)  # where the iterations stop
     clean = [(k, value - (0.5 if k in (4, 17) else 0.0), sigma) for k, value, sigma in absolutes]
     np.testing.assert_allclose(solved, robust_log_lengths(links, clean, 25), atol=0.01)  # the outliers left out
+
+
+def test_a_step_leaving_the_window_passes_on_what_was_measured_of_it():
+    """The prior on the next step: the step's measurements fused by their inverse variances, shifted by the
+    link's log ratio, with the link's variance added."""
+    mean, sigma = carried_prior([(np.log(2.0), 0.1), (np.log(2.0) + 0.3, 0.2)], (np.log(1.5), 0.05))
+    assert mean == pytest.approx(np.log(2.0) + 0.3 * 0.01 / (0.01 + 0.04) + np.log(1.5), abs=1e-12)
+    assert sigma == pytest.approx(np.sqrt(1.0 / (1.0 / 0.01 + 1.0 / 0.04) + 0.05**2), abs=1e-12)
+    assert carried_prior([], (0.0, 0.01)) is None  # nothing measured of the step
+    assert carried_prior([(0.0, 0.1)], None) is None  # no link to the next step
+
+
+def test_the_road_sets_the_scale_long_after_it_was_last_seen():
+    """Exact ratios carry the road's scale through 10 s without road, far beyond the 2 s window, where the
+    per-pair estimate knows nothing: every motion comes back exact (a window that forgot the road had
+    nothing left to scale its steps with)."""
+    lengths = 1.5 * 0.99 ** np.arange(100)  # slowing down by 1 % a step
+    steps, truths = drive(lengths, road_every=1000)  # the road on the first step only
+    steps = [StepScale(s.R, s.t_dir, 0.0, s.dt_s, s.road_m, ratio=s.ratio) for s in steps]  # no per-pair length
+    for (_, motion), truth in zip(run_window(steps), truths, strict=True):
+        np.testing.assert_allclose(motion, truth, atol=1e-6)
+
+
+def test_a_standstill_ends_what_the_window_carries():
+    """After a stop the first road sets the scale: nothing of the speed before the stop is carried on."""
+    before, _ = drive(np.full(30, 1.0))
+    after, truths = drive(np.full(30, 0.4), road_every=1000)
+    lengths = [np.linalg.norm(m[:3, 3]) for _, m in run_window(before + [None] + after)]
+    np.testing.assert_allclose(lengths[31:], 0.4, rtol=1e-6)
+
+
+def test_an_uncertain_ratio_counts_less():
+    """Ratios that all run 3 % long against roads that say constant speed: with a large standard error
+    the ratios give way to the roads, with none they pull the lengths off."""
+    lengths = np.full(40, 1.0)
+    steps, _ = drive(lengths)
+
+    def deviation(log_sigma: float) -> float:
+        biased = [StepScale(s.R, s.t_dir, 1.0, 0.1, road_m=s.road_m, ratio=None if k == 0 else 1.03,
+                            ratio_log_sigma=log_sigma) for k, s in enumerate(steps)]
+        return float(np.abs([np.linalg.norm(m[:3, 3]) - 1.0 for _, m in run_window(biased)]).max())
+
+    assert deviation(0.0) > 0.05
+    assert deviation(0.1) < 0.02

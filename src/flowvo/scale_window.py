@@ -3,15 +3,20 @@ window of steps, from the measurements of all of them.
 
 Per step the default method measures, when it can: its length from the road plane and the camera height
 (absolute, a few % noise, heavy tails), the ratio of its length to the previous step's from points seen
-in three frames (relative, under 1 % noise: :mod:`flowvo.scale_propagation`), and where no road has been
+in three frames (relative, about 1 % noise, weighted by its own standard error: a ratio whose points
+disagree counts less; :mod:`flowvo.scale_propagation`), and where no road has been
 seen for a while the network's distance (absolute, biased on real frames). With ``x_k`` the log of step
 k's length, every measurement is linear: ``x_k = log(road)``, ``x_k - x_(k-1) = log(ratio)``. The window
 solves these by robust least squares (Huber, then Cauchy), so the road's scale is averaged over the window's many
 frames and carried through stretches without road, while a wrong road or ratio is down-weighted.
 
 Each step's length is final ``latency_frames`` steps after it arrives: it then has measurements on both
-sides. A standstill ends the window (the next motion starts a new one); a time gap longer than
-``SPEED_HORIZON_S`` without a ratio breaks the link between the steps around it.
+sides. A step that leaves the window is marginalised, not forgotten: what its road, network and prior
+said of its length, carried through its link to the next step, becomes a prior on that step (the
+forward message of the chain, with the robust weights of the last solve). So a road measured before a long
+stretch without one still sets the scale, less surely with every link; the per-pair estimate's held speed
+keeps only a weak hold. A standstill ends the window and its prior (the next motion starts a new one); a time gap
+longer than ``SPEED_HORIZON_S`` without a ratio breaks the link between the steps around it.
 
 Pure computation over NumPy arrays. Motions ``T_prev_cur`` (4x4, metres) as the stream chains them.
 """
@@ -33,10 +38,13 @@ MIN_WINDOW_STEPS = 10
 LATENCY_FRAMES = 5  # real clips, t_err at latency 0 / 3 / 5: 01 1.24 / 1.26 / 1.26, 06 1.35 / 1.45 / 1.45,
 # 07 2.27 / 1.99 / 1.87 %: a step starting from rest is only measured well once the car moves
 MAX_LATENCY_FRAMES = 100  # the window holds its pending steps: longer latencies are no odometry any more
-RATIO_SIGMA = 0.01  # log: the three-view ratio's spread on the real clips (inter-quartile about +-0.5 %)
+RATIO_SIGMA = 0.008  # log: the three-view ratio's error beyond its own standard error, which adds to it (real
+# clips: steps whose ratio's standard error is below 0.5 % are 0.55-0.8 % off, rms)
 ROAD_SIGMA = 0.05  # log: the road length's spread at constant speed (real clip 06)
 NETWORK_SIGMA = 0.4  # log: the network's distance, biased on real frames (+45 % through a turn of clip 07)
-PAIR_SIGMA = 2.0  # log: the per-pair estimate, only so that a window without any measurement stays solvable
+PAIR_SIGMA = 2.0  # log: the per-pair estimate, so that a window without any measurement stays solvable and a long
+# stretch without road keeps a weak hold on the speed last measured (the speed prior's); it is not carried into
+# the prior of a step that leaves the window (it repeats the roads and network distances it came from)
 UNLINKED_SIGMA = 0.05  # log: consecutive steps without a ratio change their speed this little (10 Hz)
 HUBER_THRESHOLD = 2.0  # sigmas: beyond, Huber counts residuals linearly; Cauchy's scale (real clips, t_err
 # 01 / 06 / 07: Huber alone 1.37 / 1.38 / 1.92 %, then Cauchy 1.50 / 1.19 / 1.84 %)
@@ -51,8 +59,9 @@ CONVERGED_LOG = 1e-4  # Cauchy stops once no log length moves more (0.01 % of a 
 class StepScale:
     """One step as the window needs it: its rotation ``R`` (``R_next_prev``) and unit translation
     direction ``t_dir`` (next frame), the per-pair estimate of its length ``pair_m``, and what measured its
-    length: ``road_m``, ``network_m`` (metres) and ``ratio`` (to the previous step's length), each None
-    where nothing did; ``dt_s`` the time since the previous frame."""
+    length: ``road_m``, ``network_m`` (metres) and ``ratio`` (to the previous step's length, with the
+    standard error ``ratio_log_sigma`` of its log), each None where nothing did; ``dt_s`` the time since the
+    previous frame."""
 
     R: np.ndarray
     t_dir: np.ndarray
@@ -61,6 +70,7 @@ class StepScale:
     road_m: float | None = None
     network_m: float | None = None
     ratio: float | None = None
+    ratio_log_sigma: float = 0.0
 
 
 def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
@@ -97,10 +107,29 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
     for _ in range(iterations):
         x = solve(*(np.minimum(1.0, threshold / np.maximum(r, 1e-12)) for r in normalised(x)))
     for _ in range(MAX_CAUCHY_ITERATIONS):
-        previous, x = x, solve(*(1.0 / (1.0 + (r / threshold) ** 2) for r in normalised(x)))
+        previous, x = x, solve(*(cauchy_weight(r, threshold) for r in normalised(x)))
         if np.abs(x - previous).max() < CONVERGED_LOG:
             break
     return x
+
+
+def cauchy_weight(normalised_residual: np.ndarray | float, threshold: float = HUBER_THRESHOLD) -> np.ndarray:
+    """The weight a residual of ``normalised_residual`` sigmas keeps under the Cauchy loss of scale
+    ``threshold`` sigmas (1 at zero, 1/2 at the threshold)."""
+    return 1.0 / (1.0 + (np.asarray(normalised_residual) / threshold) ** 2)
+
+
+def carried_prior(measured: list[tuple[float, float]], link: tuple[float, float] | None
+                  ) -> tuple[float, float] | None:
+    """The prior (log length, sigma) on the next step when a step leaves the window: what ``measured`` its
+    log length ((value, sigma) each: its prior, road, network; robust weights folded into the sigmas), fused,
+    then carried through ``link`` (log ratio to the next step, sigma). None without any measurement or without
+    a link: nothing is known of the next step."""
+    if not measured or link is None:
+        return None
+    information = sum(1.0 / sigma**2 for _, sigma in measured)
+    mean = sum(value / sigma**2 for value, sigma in measured) / information
+    return mean + link[0], float(np.sqrt(1.0 / information + link[1] ** 2))
 
 
 def _columns(measurements: list[tuple[int, float, float]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -121,6 +150,8 @@ class ScaleWindow:
         self.ratios = ratios  # False: the road lengths alone, averaged (for the ablation)
         self._steps: deque[tuple[float, StepScale]] = deque()  # the window: emitted steps, then pending ones
         self._pending = 0
+        self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
+        # steps that left it
 
     def push(self, time_s: float, step: StepScale | None) -> list[tuple[float, np.ndarray]]:
         """Add the step ending at ``time_s`` (None: a standstill, identity motion); the motions
@@ -137,13 +168,16 @@ class ScaleWindow:
         """Every pending motion, final now; the window starts anew."""
         emitted = self._emit(self._pending)
         self._steps.clear()
+        self._prior = None
         return emitted
 
     def _emit(self, count: int) -> list[tuple[float, np.ndarray]]:
         if not count:
             return []
-        log_lengths, anchored = self._solve()
-        lengths = np.where(anchored, np.exp(log_lengths), [step.pair_m for _, step in self._steps])
+        links, absolutes = self._measurements()
+        log_lengths = robust_log_lengths(links, absolutes, len(self._steps))
+        lengths = np.where(self._anchored(links, absolutes), np.exp(log_lengths),
+                           [step.pair_m for _, step in self._steps])
         first = len(self._steps) - self._pending
         emitted = [(self._steps[k][0], invert_se3(se3_next_prev(self._steps[k][1].R,
                                                                 self._steps[k][1].t_dir * lengths[k])))
@@ -151,28 +185,51 @@ class ScaleWindow:
         self._pending -= count
         intervals = [step.dt_s for _, step in self._steps]
         keep = max(MIN_WINDOW_STEPS, int(round(self.window_s / float(np.median(intervals)))))
-        while len(self._steps) > max(keep, self._pending):
+        leaving = max(0, len(self._steps) - max(keep, self._pending))
+        for k in range(leaving):
+            self._prior = self._marginal(k, log_lengths, links)
+        for _ in range(leaving):
             self._steps.popleft()
         return emitted
 
-    def _solve(self) -> tuple[np.ndarray, np.ndarray]:
-        """The log lengths of the window's steps, and which are anchored (linked to an absolute measurement;
-        the others keep their per-pair length)."""
-        links, absolutes = [], []
+    def _measurements(self) -> tuple[list[tuple[int, float, float]], list[tuple[int, float, float]]]:
+        """The window's links (k, log ratio, sigma) of step k to step k - 1, and its absolute measurements
+        (k, log length, sigma): the prior of its first step, then each step's road, network and per-pair
+        lengths."""
+        links, absolutes = [], [] if self._prior is None else [(0, *self._prior)]
         for k, (_, step) in enumerate(self._steps):
             if k and self.ratios and _usable(step.ratio):
-                links.append((k, float(np.log(step.ratio)), RATIO_SIGMA))
+                links.append((k, float(np.log(step.ratio)), float(np.hypot(RATIO_SIGMA, step.ratio_log_sigma))))
             elif k and step.dt_s <= SPEED_HORIZON_S:  # about the same speed: lengths in proportion to the time
                 links.append((k, float(np.log(step.dt_s / self._steps[k - 1][1].dt_s)), UNLINKED_SIGMA))
-            for value, sigma in ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA),
-                                 (step.pair_m, PAIR_SIGMA)):
-                if _usable(value):
-                    absolutes.append((k, float(np.log(value)), sigma))
-        count = len(self._steps)
+            absolutes += [(k, float(np.log(value)), sigma) for value, sigma in
+                          ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA), (step.pair_m, PAIR_SIGMA))
+                          if _usable(value)]
+        return links, absolutes
+
+    def _anchored(self, links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]]
+                  ) -> np.ndarray:
+        """Which steps are linked to an absolute measurement (the others keep their per-pair length)."""
         linked = {k for k, _, _ in links}
-        segment = np.cumsum([k not in linked for k in range(count)])  # runs of steps tied to one another
-        anchored = np.isin(segment, segment[[k for k, _, _ in absolutes]])
-        return robust_log_lengths(links, absolutes, count), anchored
+        segment = np.cumsum([k not in linked for k in range(len(self._steps))])  # runs of steps tied to one another
+        return np.isin(segment, segment[[k for k, _, _ in absolutes]])
+
+    def _marginal(self, k: int, log_lengths: np.ndarray, links: list[tuple[int, float, float]]
+                  ) -> tuple[float, float] | None:
+        """The prior on step k + 1 once step k leaves the window (the steps before it have left, so the prior
+        is its own): its prior, road and network lengths, each under its Cauchy weight at the solved
+        ``log_lengths``, carried through its link."""
+        def robust(value: float, sigma: float, residual: float) -> tuple[float, float]:
+            return value, sigma / float(np.sqrt(cauchy_weight(abs(residual) / sigma)))
+
+        step = self._steps[k][1]
+        lengths = ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA))
+        measured = [(float(np.log(value)), sigma) for value, sigma in lengths if _usable(value)]
+        if self._prior is not None:
+            measured.append(self._prior)
+        link = next((robust(value, sigma, log_lengths[k + 1] - log_lengths[k] - value)
+                     for j, value, sigma in links if j == k + 1), None)
+        return carried_prior([robust(value, sigma, log_lengths[k] - value) for value, sigma in measured], link)
 
 
 def _usable(value: float | None) -> bool:

@@ -39,7 +39,7 @@ from flowvo.road_scale import (
     road_room,
     trusted_road_plane,
 )
-from flowvo.scale_propagation import MIN_PARALLAX_PX, step_length_ratio
+from flowvo.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.scale_window import ScaleWindow, StepScale
 from flowvo.speed_prior import SpeedPrior
 from flowvo.two_view import (
@@ -302,12 +302,12 @@ class FlowGeometryStep(WorkingFrames):
             plausible = road_m is not None and road_m <= self.speed.max_speed_mps * dt_s
             ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
             self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
-                                         ratio)
+                                         *((None, 0.0) if ratio is None else ratio))
             self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
 
     def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
-                      fit: EssentialMotion) -> float | None:
+                      fit: EssentialMotion) -> LengthRatio | None:
         """This step's length over the last one's (:mod:`flowvo.scale_propagation`), from the last step's
         inlier tracks (its fit and undistorted tracks) that went on into ``current``."""
         last_fit, before, at = last_step
