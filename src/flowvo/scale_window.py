@@ -27,7 +27,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solveh_banded
+from scipy.linalg import cho_factor, cho_solve
 
 from flowvo.geometry import invert_se3
 from flowvo.speed_prior import SPEED_HORIZON_S
@@ -61,7 +61,8 @@ class StepScale:
     direction ``t_dir`` (next frame), the per-pair estimate of its length ``pair_m``, and what measured its
     length: ``road_m``, ``network_m`` (metres) and ``ratio`` (to the previous step's length, with the
     standard error ``ratio_log_sigma`` of its log), each None where nothing did; ``dt_s`` the time since the
-    previous frame."""
+    previous frame. ``road_m`` is the road's length of the last ``road_steps`` steps, this one the last: a
+    road measured from a key frame several steps back (at low speed) measures their sum."""
 
     R: np.ndarray
     t_dir: np.ndarray
@@ -71,43 +72,60 @@ class StepScale:
     network_m: float | None = None
     ratio: float | None = None
     ratio_log_sigma: float = 0.0
+    road_steps: int = 1
 
 
 def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
-                       count: int, threshold: float = HUBER_THRESHOLD, iterations: int = HUBER_ITERATIONS
-                       ) -> np.ndarray:
+                       count: int, threshold: float = HUBER_THRESHOLD, iterations: int = HUBER_ITERATIONS,
+                       sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
     """The log lengths ``x`` (count,) of the measurements under a robust loss, by iteratively reweighted
     least squares: Huber first, convex, from the plain least-squares start; then Cauchy from there, which
-    lets gross outliers go. Each iteration solves the weighted normal equations exactly; they are
-    tridiagonal (every measurement touches one step or two neighbours), a banded Cholesky solve.
+    lets gross outliers go. Each iteration solves the weighted normal equations exactly (Cholesky); a sum,
+    not linear in ``x``, is linearised where the last iteration ended (Gauss-Newton), from equal lengths.
 
-    ``links``: (k, log ratio, sigma) for ``x_k - x_(k-1)``; ``absolutes``: (k, log length, sigma) for ``x_k``.
-    A connected run of steps without an absolute measurement is left near 0 (undetermined).
+    ``links``: (k, log ratio, sigma) for ``x_k - x_(k-1)``; ``absolutes``: (k, log length, sigma) for ``x_k``;
+    ``sums``: (first, last, log length, sigma) for the log of the summed lengths of steps first..last (a
+    road measured from a key frame several steps back). A connected run of steps without an absolute
+    measurement or sum is left near 0 (undetermined).
     """
     link_k, link_value, link_sigma = _columns(links)
     absolute_k, absolute_value, absolute_sigma = _columns(absolutes)
+    steps = np.arange(count)
+    spans = np.array([(steps >= first) & (steps <= last) for first, last, _, _ in sums]).reshape(len(sums), count)
+    sum_value, sum_sigma = (np.array([row[i] for row in sums], np.float64) for i in (2, 3))
 
-    def solve(link_weight: np.ndarray, absolute_weight: np.ndarray) -> np.ndarray:
+    def summed(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each sum's log at ``x``, and its derivatives (each step's share of the sum)."""
+        lengths = np.where(spans, np.exp(x), 0.0)
+        total = lengths.sum(axis=1)
+        return np.log(total), lengths / total[:, None]
+
+    def solve(link_weight: np.ndarray, absolute_weight: np.ndarray, sum_weight: np.ndarray, at: np.ndarray
+              ) -> np.ndarray:
         w_link, w_absolute = link_weight / link_sigma**2, absolute_weight / absolute_sigma**2
-        banded = np.empty((2, count))  # upper form: row 0 the superdiagonal (from column 1), row 1 the diagonal
-        banded[0] = -np.bincount(link_k, w_link, count)
-        banded[1] = (UNDETERMINED_WEIGHT + np.bincount(link_k, w_link, count) + np.bincount(link_k - 1, w_link, count)
-                     + np.bincount(absolute_k, w_absolute, count))
+        normal = np.diag(UNDETERMINED_WEIGHT + np.bincount(link_k, w_link, count)
+                         + np.bincount(link_k - 1, w_link, count) + np.bincount(absolute_k, w_absolute, count))
+        np.add.at(normal, (link_k, link_k - 1), -w_link)
+        np.add.at(normal, (link_k - 1, link_k), -w_link)
         rhs = (np.bincount(link_k, w_link * link_value, count) - np.bincount(link_k - 1, w_link * link_value, count)
                + np.bincount(absolute_k, w_absolute * absolute_value, count))
-        if count == 1:  # LAPACK's tridiagonal solver wants two rows at least
-            return rhs / banded[1]
-        return solveh_banded(banded, rhs, overwrite_ab=True, overwrite_b=True, check_finite=False)
+        if len(sum_value):
+            log_sum, shares = summed(at)
+            w_sum = sum_weight / sum_sigma**2
+            normal += shares.T @ (w_sum[:, None] * shares)
+            rhs += shares.T @ (w_sum * (sum_value - log_sum + shares @ at))
+        return cho_solve(cho_factor(normal, check_finite=False), rhs, check_finite=False)
 
-    def normalised(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def normalised(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return (np.abs(x[link_k] - x[link_k - 1] - link_value) / link_sigma,
-                np.abs(x[absolute_k] - absolute_value) / absolute_sigma)
+                np.abs(x[absolute_k] - absolute_value) / absolute_sigma,
+                np.abs(summed(x)[0] - sum_value) / sum_sigma if len(sum_value) else np.zeros(0))
 
-    x = solve(np.ones(len(link_k)), np.ones(len(absolute_k)))
+    x = solve(np.ones(len(link_k)), np.ones(len(absolute_k)), np.ones(len(sum_value)), np.zeros(count))
     for _ in range(iterations):
-        x = solve(*(np.minimum(1.0, threshold / np.maximum(r, 1e-12)) for r in normalised(x)))
+        x = solve(*(np.minimum(1.0, threshold / np.maximum(r, 1e-12)) for r in normalised(x)), x)
     for _ in range(MAX_CAUCHY_ITERATIONS):
-        previous, x = x, solve(*(cauchy_weight(r, threshold) for r in normalised(x)))
+        previous, x = x, solve(*(cauchy_weight(r, threshold) for r in normalised(x)), x)
         if np.abs(x - previous).max() < CONVERGED_LOG:
             break
     return x
@@ -174,9 +192,10 @@ class ScaleWindow:
     def _emit(self, count: int) -> list[tuple[float, np.ndarray]]:
         if not count:
             return []
-        links, absolutes = self._measurements()
-        log_lengths = robust_log_lengths(links, absolutes, len(self._steps))
-        lengths = np.where(self._anchored(links, absolutes), np.exp(log_lengths),
+        links, absolutes, sums = self._measurements()
+        log_lengths = robust_log_lengths(links, absolutes, len(self._steps), sums=sums)
+        lengths = np.where(self._anchored(links, absolutes + [(last, 0.0, 1.0) for _, last, _, _ in sums]),
+                           np.exp(log_lengths),
                            [step.pair_m for _, step in self._steps])
         first = len(self._steps) - self._pending
         emitted = [(self._steps[k][0], invert_se3(se3_next_prev(self._steps[k][1].R,
@@ -192,20 +211,25 @@ class ScaleWindow:
             self._steps.popleft()
         return emitted
 
-    def _measurements(self) -> tuple[list[tuple[int, float, float]], list[tuple[int, float, float]]]:
-        """The window's links (k, log ratio, sigma) of step k to step k - 1, and its absolute measurements
+    def _measurements(self) -> tuple[list[tuple[int, float, float]], list[tuple[int, float, float]],
+                                     list[tuple[int, int, float, float]]]:
+        """The window's links (k, log ratio, sigma) of step k to step k - 1, its absolute measurements
         (k, log length, sigma): the prior of its first step, then each step's road, network and per-pair
-        lengths."""
-        links, absolutes = [], [] if self._prior is None else [(0, *self._prior)]
+        lengths, and its roads over several steps (first, last, log length, sigma; one whose first step
+        has left the window is left out)."""
+        links, absolutes, sums = [], [] if self._prior is None else [(0, *self._prior)], []
         for k, (_, step) in enumerate(self._steps):
             if k and self.ratios and _usable(step.ratio):
                 links.append((k, float(np.log(step.ratio)), float(np.hypot(RATIO_SIGMA, step.ratio_log_sigma))))
             elif k and step.dt_s <= SPEED_HORIZON_S:  # about the same speed: lengths in proportion to the time
                 links.append((k, float(np.log(step.dt_s / self._steps[k - 1][1].dt_s)), UNLINKED_SIGMA))
+            road = step.road_m if step.road_steps == 1 else None
             absolutes += [(k, float(np.log(value)), sigma) for value, sigma in
-                          ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA), (step.pair_m, PAIR_SIGMA))
+                          ((road, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA), (step.pair_m, PAIR_SIGMA))
                           if _usable(value)]
-        return links, absolutes
+            if step.road_steps > 1 and _usable(step.road_m) and k + 1 >= step.road_steps:
+                sums.append((k + 1 - step.road_steps, k, float(np.log(step.road_m)), ROAD_SIGMA))
+        return links, absolutes, sums
 
     def _anchored(self, links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]]
                   ) -> np.ndarray:
@@ -217,13 +241,13 @@ class ScaleWindow:
     def _marginal(self, k: int, log_lengths: np.ndarray, links: list[tuple[int, float, float]]
                   ) -> tuple[float, float] | None:
         """The prior on step k + 1 once step k leaves the window (the steps before it have left, so the prior
-        is its own): its prior, road and network lengths, each under its Cauchy weight at the solved
-        ``log_lengths``, carried through its link."""
+        is its own): its prior, road (of this step alone) and network lengths, each under its Cauchy weight at
+        the solved ``log_lengths``, carried through its link."""
         def robust(value: float, sigma: float, residual: float) -> tuple[float, float]:
             return value, sigma / float(np.sqrt(cauchy_weight(abs(residual) / sigma)))
 
         step = self._steps[k][1]
-        lengths = ((step.road_m, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA))
+        lengths = ((step.road_m if step.road_steps == 1 else None, ROAD_SIGMA), (step.network_m, NETWORK_SIGMA))
         measured = [(float(np.log(value)), sigma) for value, sigma in lengths if _usable(value)]
         if self._prior is not None:
             measured.append(self._prior)

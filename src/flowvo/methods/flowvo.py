@@ -281,15 +281,16 @@ class FlowGeometryStep(WorkingFrames):
                                                                 min_parallax_px=self.min_road_parallax_px)
         if plane is not None:
             plane = self.road_normal.smoothed(plane, key_fit.R, keep=road_measured)
-        # the road's length since the key frame, as this step's share at the speed it gives
-        step_m = None if plane is None else self.camera_height_m / plane.distance * dt_s / (time_s - key_time_s)
+        road_m = None if plane is None else self.camera_height_m / plane.distance  # since the key frame
+        # per pair: this step's share of it, at the speed it gives
+        step_m = None if road_m is None else road_m * dt_s / (time_s - key_time_s)
         key_young = time_s - key_time_s < MAX_ROAD_KEY_S - TIME_TOLERANCE_S
         if plane is not None and road_moved_px < self.key_road_px and key_young:
             # the road moved too little for a precise scale: the next step measures from the same key frame
             self._road_key, self._key_time_s, self._key_steps = key_frame, key_time_s, key_steps
         elif plane is not None and key_is_previous:
             self._road_prediction = road_homography(self.K, fit, plane)
-        road_m, network_m = step_m, None
+        network_m = None
         if step_m is not None:
             self.fallback_policy.road_seen(time_s)
         elif self.fallback is not None and self.fallback_policy.network_needed(time_s):
@@ -299,10 +300,10 @@ class FlowGeometryStep(WorkingFrames):
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
         if self.window is not None:
-            plausible = road_m is not None and road_m <= self.speed.max_speed_mps * dt_s
+            plausible = road_m is not None and road_m <= self.speed.max_speed_mps * (time_s - key_time_s)
             ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
             self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
-                                         *((None, 0.0) if ratio is None else ratio))
+                                         *((None, 0.0) if ratio is None else ratio), road_steps=key_steps)
             self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
 
