@@ -275,3 +275,12 @@ def test_a_stop_measured_from_key_frames_keeps_each_step_its_length():
 
     assert np.median(np.abs(solved(as_sums=True))) < 0.01
     assert np.median(np.abs(solved(as_sums=False))) > 0.05
+
+
+def test_without_marginalisation_the_window_forgets_the_road():
+    """The ablation's window: 10 s after the only road, with no per-pair length, the steps are left unscaled."""
+    lengths = np.full(100, 1.0)
+    steps, _ = drive(lengths, road_every=1000)
+    steps = [StepScale(s.R, s.t_dir, 0.0, s.dt_s, s.road_m, ratio=s.ratio) for s in steps]
+    found = [np.linalg.norm(m[:3, 3]) for _, m in run_window(steps, ScaleWindow(marginalise=False))]
+    assert found[0] == pytest.approx(1.0) and found[-1] == pytest.approx(0.0, abs=1e-9)

@@ -162,10 +162,12 @@ class ScaleWindow:
     """The sliding window (see the module docstring): ``push`` a step, get back the motions that are
     final; ``flush`` at the end of the drive."""
 
-    def __init__(self, latency_frames: int = LATENCY_FRAMES, window_s: float = WINDOW_S, ratios: bool = True) -> None:
+    def __init__(self, latency_frames: int = LATENCY_FRAMES, window_s: float = WINDOW_S, ratios: bool = True,
+                 marginalise: bool = True) -> None:
         self.latency_frames = latency_frames
         self.window_s = window_s
         self.ratios = ratios  # False: the road lengths alone, averaged (for the ablation)
+        self.marginalise = marginalise  # False: steps that leave the window are forgotten (for the ablation)
         self._steps: deque[tuple[float, StepScale]] = deque()  # the window: emitted steps, then pending ones
         self._pending = 0
         self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
@@ -205,7 +207,7 @@ class ScaleWindow:
         intervals = [step.dt_s for _, step in self._steps]
         keep = max(MIN_WINDOW_STEPS, int(round(self.window_s / float(np.median(intervals)))))
         leaving = max(0, len(self._steps) - max(keep, self._pending))
-        for k in range(leaving):
+        for k in range(leaving if self.marginalise else 0):
             self._prior = self._marginal(k, log_lengths, links)
         for _ in range(leaving):
             self._steps.popleft()
