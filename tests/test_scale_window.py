@@ -32,34 +32,34 @@ def step(yaw_rad, length_m):
     return R, t, se3_next_prev(R, t * length_m)
 
 
-def test_three_views_give_the_exact_ratio_of_the_step_lengths():
-    rng = np.random.default_rng(3)
-    scene_a = np.c_[rng.uniform(-10, 10, 200), rng.uniform(-3, 1.5, 200), rng.uniform(6, 40, 200)]
+def three_views(seed, count):
+    """``count`` scene points seen from three cameras a -> b -> c (steps of 0.8 and 1.1 m while turning): the
+    pixels (a, b, c) and the two steps' motions."""
+    rng = np.random.default_rng(seed)
+    scene_a = np.c_[rng.uniform(-10, 10, count), rng.uniform(-3, 1.5, count), rng.uniform(6, 40, count)]
     R1, t1, T_ba = step(0.02, 0.8)
     R2, t2, T_cb = step(-0.03, 1.1)
     to_b = scene_a @ T_ba[:3, :3].T + T_ba[:3, 3]
-    to_c = to_b @ T_cb[:3, :3].T + T_cb[:3, 3]
-    a, b, c = project(scene_a), project(to_b), project(to_c)
-    everyone = np.ones(200, bool)
-    ratio = step_length_ratio((a, b), EssentialMotion(R1, t1, everyone), (b, c), EssentialMotion(R2, t2, everyone), K)
+    everyone = np.ones(count, bool)
+    pixels = project(scene_a), project(to_b), project(to_b @ T_cb[:3, :3].T + T_cb[:3, 3])
+    return pixels, EssentialMotion(R1, t1, everyone), EssentialMotion(R2, t2, everyone)
+
+
+def test_three_views_give_the_exact_ratio_of_the_step_lengths():
+    (a, b, c), first, second = three_views(3, 200)
+    ratio = step_length_ratio((a, b), first, (b, c), second, K)
     assert ratio.ratio == pytest.approx(1.1 / 0.8, rel=1e-9)
     assert ratio.log_sigma < 1e-9  # every point gives the same ratio
 
 
 def test_the_ratio_of_noisy_tracks_comes_with_its_standard_error():
     """Tracks with 0.3 px of noise: the ratio is off by about its standard error, which grows with the noise."""
+    pixels, first, second = three_views(5, 300)
     rng = np.random.default_rng(5)
-    scene_a = np.c_[rng.uniform(-10, 10, 300), rng.uniform(-3, 1.5, 300), rng.uniform(6, 40, 300)]
-    R1, t1, T_ba = step(0.02, 0.8)
-    R2, t2, T_cb = step(-0.03, 1.1)
-    to_b = scene_a @ T_ba[:3, :3].T + T_ba[:3, 3]
-    a, b, c = project(scene_a), project(to_b), project(to_b @ T_cb[:3, :3].T + T_cb[:3, 3])
-    everyone = np.ones(300, bool)
 
     def measured(noise_px):
-        a_, b_, c_ = (p + rng.normal(0.0, noise_px, p.shape) for p in (a, b, c))
-        return step_length_ratio((a_, b_), EssentialMotion(R1, t1, everyone), (b_, c_),
-                                 EssentialMotion(R2, t2, everyone), K)
+        a, b, c = (p + rng.normal(0.0, noise_px, p.shape) for p in pixels)
+        return step_length_ratio((a, b), first, (b, c), second, K)
 
     slight, strong = measured(0.1), measured(0.3)
     assert 0.0 < slight.log_sigma < strong.log_sigma < 0.05

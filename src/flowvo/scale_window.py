@@ -197,8 +197,8 @@ class ScaleWindow:
             return []
         links, absolutes, sums = self._measurements()
         log_lengths = robust_log_lengths(links, absolutes, len(self._steps), sums=sums)
-        lengths = np.where(self._anchored(links, absolutes + [(last, 0.0, 1.0) for _, last, _, _ in sums]),
-                           np.exp(log_lengths),
+        measured = [k for k, _, _ in absolutes] + [last for _, last, _, _ in sums]
+        lengths = np.where(self._anchored(links, measured), np.exp(log_lengths),
                            [step.pair_m for _, step in self._steps])
         first = len(self._steps) - self._pending
         emitted = [(self._steps[k][0], invert_se3(se3_next_prev(self._steps[k][1].R,
@@ -234,12 +234,12 @@ class ScaleWindow:
                 sums.append((k + 1 - step.road_steps, k, float(np.log(step.road_m)), ROAD_SIGMA))
         return links, absolutes, sums
 
-    def _anchored(self, links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]]
-                  ) -> np.ndarray:
-        """Which steps are linked to an absolute measurement (the others keep their per-pair length)."""
+    def _anchored(self, links: list[tuple[int, float, float]], measured: list[int]) -> np.ndarray:
+        """Which steps are linked to one of the ``measured`` steps (an absolute length or a sum ending there;
+        the others keep their per-pair length)."""
         linked = {k for k, _, _ in links}
         segment = np.cumsum([k not in linked for k in range(len(self._steps))])  # runs of steps tied to one another
-        return np.isin(segment, segment[[k for k, _, _ in absolutes]])
+        return np.isin(segment, segment[measured])
 
     def _marginal(self, k: int, log_lengths: np.ndarray, links: list[tuple[int, float, float]]
                   ) -> tuple[float, float] | None:
