@@ -131,7 +131,7 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     weights = inliers[:, 2] ** -4.0
     weights /= weights.sum()
     centre = weights @ inliers
-    normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None])[2][2]
+    normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None], full_matrices=False)[2][2]
     normal = normal if normal[1] > 0 else -normal
     return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre)
 
