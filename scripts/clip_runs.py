@@ -37,11 +37,13 @@ def run_cell(data: Path, clip: str, out: Path, extra: list[str] = ()) -> str:
 
 @dataclass(frozen=True)
 class ClipScore:
-    """A stream's result on a clip: t_err (%), its path length over the truth's, and frames/s."""
+    """A stream's result on a clip: t_err (%), its path length over the truth's, frames/s, and the window
+    stage's milliseconds per frame (0 without one)."""
 
     t_err_percent: float
     length_ratio: float
     frames_per_second: float
+    window_ms: float
 
 
 def stream_clip(data: Path, clip: str, build: Callable[[Camera, tuple[int, int]], OdometryStep]) -> ClipScore:
@@ -54,5 +56,6 @@ def stream_clip(data: Path, clip: str, build: Callable[[Camera, tuple[int, int]]
     predicted = Trajectory.from_poses(result.T_world_cam)
     metrics = evaluate(source.ground_truth, predicted, lengths_m=tuple(float(m) for m in CLIPS[clip])).metrics
     predicted_m, truth_m = (trajectory_distances(t.T_world_cam[:, :3, 3])[-1] for t in (predicted, source.ground_truth))
-    return ClipScore(float(metrics["t_err_percent"]), float(predicted_m / truth_m),
-                     float(timing_report(result)["frames_per_second"]))
+    timing = timing_report(result)
+    return ClipScore(float(metrics["t_err_percent"]), float(predicted_m / truth_m), float(timing["frames_per_second"]),
+                     1e3 * float(timing["seconds_per_frame"].get("window", 0.0)))

@@ -14,6 +14,7 @@ from flowvo.scale_window import (
     StepScale,
     carried_prior,
     robust_log_lengths,
+    scipy_log_lengths,
 )
 from flowvo.two_view import EssentialMotion, se3_next_prev
 
@@ -204,6 +205,20 @@ def test_the_robust_solve_is_the_minimum_scipy_finds_under_the_cauchy_loss():
     np.testing.assert_allclose(solved, reference, atol=CONVERGED_LOG)  # where the iterations stop
     clean = [(k, value - (0.5 if k in (4, 17) else 0.0), sigma) for k, value, sigma in absolutes]
     np.testing.assert_allclose(solved, robust_log_lengths(links, clean, 25), atol=0.01)  # the outliers left out
+
+
+def test_scipy_solves_the_same_window_with_sums_and_outliers_alike():
+    """The window's own iterations against SciPy's least_squares on ratios, roads with two gross outliers and
+    roads over several steps: the same lengths, to the iterations' stopping rule."""
+    rng = np.random.default_rng(11)
+    truth = np.cumsum(rng.normal(0.0, 0.03, 20))
+    links = [(k, truth[k] - truth[k - 1] + rng.normal(0.0, 0.01), 0.01) for k in range(1, 20) if k != 9]
+    absolutes = [(k, truth[k] + rng.normal(0.0, 0.05) + (0.6 if k in (4, 14) else 0.0), 0.05) for k in range(0, 20, 2)]
+    sums = [(first, first + 2, float(np.log(np.exp(truth[first:first + 3]).sum())) + rng.normal(0.0, 0.05), 0.05)
+            for first in (5, 11, 16)]
+    ours, scipy = (solve(links, absolutes, 20, sums=sums) for solve in (robust_log_lengths, scipy_log_lengths))
+    np.testing.assert_allclose(ours, scipy, atol=3 * CONVERGED_LOG)
+    assert np.abs(ours - truth).max() < 0.05  # the outliers (0.6 in log: 82 % long) left out
 
 
 def test_a_step_leaving_the_window_passes_on_what_was_measured_of_it():

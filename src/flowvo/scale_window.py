@@ -132,6 +132,43 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
     return x
 
 
+def scipy_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
+                      count: int, threshold: float = HUBER_THRESHOLD,
+                      sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
+    """The same robust fit as :func:`robust_log_lengths` (same measurements, Huber then Cauchy of scale
+    ``threshold`` sigmas) by SciPy's ``least_squares`` (trust-region reflective, analytic Jacobian): the
+    well-kept solver the window's own iterations are measured against (``ScaleWindow(solver="scipy")``)."""
+    from scipy.optimize import least_squares
+
+    link_k, link_value, link_sigma = _columns(links)
+    absolute_k, absolute_value, absolute_sigma = _columns(absolutes)
+    spans = [np.arange(first, last + 1) for first, last, _, _ in sums]
+    rows = len(link_k) + len(absolute_k) + len(spans) + count
+    jacobian = np.zeros((rows, count))
+    jacobian[np.arange(len(link_k)), link_k] = 1.0 / link_sigma
+    jacobian[np.arange(len(link_k)), link_k - 1] = -1.0 / link_sigma
+    jacobian[len(link_k) + np.arange(len(absolute_k)), absolute_k] = 1.0 / absolute_sigma
+    jacobian[rows - count:] = np.sqrt(UNDETERMINED_WEIGHT) * np.eye(count)
+    first_sum = len(link_k) + len(absolute_k)
+
+    def residuals(x: np.ndarray) -> np.ndarray:
+        summed = [(np.log(np.exp(x[span]).sum()) - value) / sigma for span, (_, _, value, sigma) in zip(spans, sums)]
+        return np.concatenate([(x[link_k] - x[link_k - 1] - link_value) / link_sigma,
+                               (x[absolute_k] - absolute_value) / absolute_sigma, summed,
+                               np.sqrt(UNDETERMINED_WEIGHT) * x])
+
+    def derivatives(x: np.ndarray) -> np.ndarray:
+        for row, (span, (_, _, _, sigma)) in enumerate(zip(spans, sums)):
+            lengths = np.exp(x[span])
+            jacobian[first_sum + row, span] = lengths / lengths.sum() / sigma
+        return jacobian
+
+    x = np.zeros(count)
+    for loss in ("huber", "cauchy"):
+        x = least_squares(residuals, x, derivatives, loss=loss, f_scale=threshold).x
+    return x
+
+
 def cauchy_weight(normalised_residual: np.ndarray | float, threshold: float = HUBER_THRESHOLD) -> np.ndarray:
     """The weight a residual of ``normalised_residual`` sigmas keeps under the Cauchy loss of scale
     ``threshold`` sigmas (1 at zero, 1/2 at the threshold)."""
@@ -164,11 +201,12 @@ class ScaleWindow:
     final; ``flush`` at the end of the drive."""
 
     def __init__(self, latency_frames: int = LATENCY_FRAMES, window_s: float = WINDOW_S, ratios: bool = True,
-                 marginalise: bool = True) -> None:
+                 marginalise: bool = True, solver: str = "cholesky") -> None:
         self.latency_frames = latency_frames
         self.window_s = window_s
         self.ratios = ratios  # False: the road lengths alone, averaged (for the ablation)
         self.marginalise = marginalise  # False: steps that leave the window are forgotten (for the ablation)
+        self.solve = {"cholesky": robust_log_lengths, "scipy": scipy_log_lengths}[solver]  # scipy: for the ablation
         self._steps: deque[tuple[float, StepScale]] = deque()  # the window: emitted steps, then pending ones
         self._pending = 0
         self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
@@ -196,7 +234,7 @@ class ScaleWindow:
         if not count:
             return []
         links, absolutes, sums = self._measurements()
-        log_lengths = robust_log_lengths(links, absolutes, len(self._steps), sums=sums)
+        log_lengths = self.solve(links, absolutes, len(self._steps), sums=sums)
         measured = [k for k, _, _ in absolutes] + [last for _, last, _, _ in sums]
         lengths = np.where(self._anchored(links, measured), np.exp(log_lengths),
                            [step.pair_m for _, step in self._steps])
