@@ -1,8 +1,8 @@
 """Print the window stage's ablation table on the real KITTI clips: the per-pair estimate against the
 scale window at several latencies and lengths, without its three-view ratios (road lengths averaged
-alone) and without the prior that steps leaving the window pass on, and solved by SciPy's least_squares instead of its own
-iterations; the frames/s of each on clip 07 (one process, frames read in a thread beside the rest) and the
-window stage's milliseconds per frame there.
+alone), without the prior that steps leaving the window pass on, and solved by SciPy's least_squares
+instead of its own iterations; the frames/s of each on clip 07 (one process, frames read in a thread
+beside the rest) and the window stage's milliseconds per frame there.
 
 Usage: python scripts/window_ablation.py [CLIPS_ROOT]
 """

@@ -152,13 +152,14 @@ def scipy_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tup
     first_sum = len(link_k) + len(absolute_k)
 
     def residuals(x: np.ndarray) -> np.ndarray:
-        summed = [(np.log(np.exp(x[span]).sum()) - value) / sigma for span, (_, _, value, sigma) in zip(spans, sums)]
+        summed = [(np.log(np.exp(x[span]).sum()) - value) / sigma
+                  for span, (_, _, value, sigma) in zip(spans, sums, strict=True)]
         return np.concatenate([(x[link_k] - x[link_k - 1] - link_value) / link_sigma,
                                (x[absolute_k] - absolute_value) / absolute_sigma, summed,
                                np.sqrt(UNDETERMINED_WEIGHT) * x])
 
     def derivatives(x: np.ndarray) -> np.ndarray:
-        for row, (span, (_, _, _, sigma)) in enumerate(zip(spans, sums)):
+        for row, (span, (_, _, _, sigma)) in enumerate(zip(spans, sums, strict=True)):
             lengths = np.exp(x[span])
             jacobian[first_sum + row, span] = lengths / lengths.sum() / sigma
         return jacobian
