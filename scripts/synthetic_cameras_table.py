@@ -1,6 +1,6 @@
 """Print the synthetic-cameras table: the default method on one synthetic world and drive seen by KITTI's
 camera and by other cameras (each change alone, then all together), t_err and the estimated path length
-against the truth.
+against the truth. The last rows: a camera pitched down, told so by its calib.txt, and run as if level.
 
 Usage: python scripts/synthetic_cameras_table.py OUT_DIR [--frames 300] [--seed 3] [--scale 0.5]
        [--max-speed 12] [--lengths 25 50 75 100]
@@ -26,7 +26,11 @@ CAMERAS = {
     "barrel k1 -0.25 k2 0.05": SynthCamera(distortion=BARREL),
     "30 fps": SynthCamera(fps=30.0),
     "all four": SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL, fps=30.0),
+    "pitched 8 deg down": SynthCamera(pitch_deg=8.0),
+    "pitched 8 deg down, run as if level (--camera-pitch 0)": SynthCamera(pitch_deg=8.0),
 }
+TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0}  # run options that override the
+# camera's calib.txt
 
 
 def main() -> None:
@@ -49,7 +53,7 @@ def main() -> None:
         synthesize(root, ["00"], seed=args.seed, frames=frames, scale=args.scale, max_speed_mps=args.max_speed,
                    camera=camera, force=True)
         summary = run(RunOptions(out=str(root.parent / "run"), data=str(root), sequence="00",
-                                 lengths_m=tuple(args.lengths), force=True))
+                                 lengths_m=tuple(args.lengths), force=True, camera_pitch_deg=TOLD_PITCH_DEG.get(label)))
         metrics = summary["metrics"]
         truth = trajectory_distances(read_kitti_poses(root / "poses" / "00.txt").positions)[-1]
         length = trajectory_distances(read_kitti_poses(root.parent / "run" / "00.txt").positions)[-1]

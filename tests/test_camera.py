@@ -106,9 +106,39 @@ def test_kalibr_camchain_first_camera(tmp_path):
 def test_kitti_calib_with_flowvo_camera_lines(tmp_path):
     path = tmp_path / "calib.txt"
     path.write_text("P0: 500 0 320.5 0 0 502 240.5 0 0 0 1 0\ndistortion: -0.25 0.05 0.001 -0.002\n"
-                    "camera_height_m: 1.2\n")
+                    "camera_height_m: 1.2\ncamera_pitch_deg: 7.5\n")
     camera = read_camera_file(path)
     assert camera.intrinsics == INTRINSICS and camera.distortion == BARREL and camera.height_m == 1.2
+    assert camera.pitch_deg == 7.5
+
+
+def read_calibration_text(tmp_path, text):
+    from flowvo.kitti.calib import read_calibration
+
+    (tmp_path / "plain.txt").write_text(text)
+    return read_calibration(tmp_path / "plain.txt")
+
+
+def test_a_pitch_in_calib_txt_survives_writing_and_reading(tmp_path):
+    from flowvo.kitti.calib import Calibration, format_calibration, read_calibration
+
+    calibration = Calibration({"P0": np.hstack([INTRINSICS.K, np.zeros((3, 1))])}, BARREL, 1.2, -3.25)
+    (tmp_path / "calib.txt").write_text(format_calibration(calibration))
+    back = read_calibration(tmp_path / "calib.txt")
+    assert (back.distortion, back.camera_height_m, back.camera_pitch_deg) == (BARREL, 1.2, -3.25)
+    assert read_calibration_text(tmp_path, "P0: 500 0 320.5 0 0 502 240.5 0 0 0 1 0\n").camera_pitch_deg is None
+
+
+@pytest.mark.parametrize(("line", "message"), [
+    ("camera_pitch_deg: 45", "camera pitch must be a finite number of degrees in \\[-30, 30\\]"),
+    ("camera_pitch_deg: nan", "camera pitch must be a finite number"),
+    ("camera_pitch_deg: 1 2", "camera_pitch_deg: expected one number \\(degrees\\)"),
+    ("camera_pitch_deg: down", "camera_pitch_deg: expected numbers, found text"),
+])
+def test_a_bad_pitch_line_is_a_one_line_error_naming_the_file_and_line(tmp_path, line, message):
+    with pytest.raises(FlowvoError, match=message) as error:
+        read_calibration_text(tmp_path, f"P0: 500 0 320.5 0 0 502 240.5 0 0 0 1 0\n{line}\n")
+    assert "plain.txt:2" in str(error.value) and "\n" not in str(error.value)
 
 
 @pytest.mark.parametrize(("text", "message"), [
@@ -141,11 +171,21 @@ def test_flags_override_the_drive_camera_and_the_height_defaults_to_kitti():
     assert flags.source == "flags"
 
 
+def test_the_pitch_comes_from_the_flag_else_the_calibration_else_level():
+    drive = Camera(INTRINSICS, BARREL, None, "kitti", pitch_deg=6.0)
+    assert drive_camera(given_camera(None, None, None, None, None), drive, (480, 640), "d").pitch_deg == 6.0
+    told = drive_camera(given_camera(None, None, None, None, None, camera_pitch_deg=0.0), drive, (480, 640), "d")
+    assert told.pitch_deg == 0.0 and told.record()["camera_pitch_deg"] == 0.0
+    assert drive_camera(given_camera(None, 400.0, 400.0, 300.0, 200.0), None, (480, 640), "d").pitch_deg == 0.0
+    assert drive.scaled(0.5, 0.5).pitch_deg == 6.0
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"fx": 500.0}, "missing --fy --cx --cy"),
     ({"distortion_model": "equidistant"}, "--distortion-model needs --dist"),
     ({"distortion": (0.1, 0.2)}, "takes 4 or 5 coefficients, got 2"),
     ({"camera_height_m": -1.0}, "camera height"),
+    ({"camera_pitch_deg": 31.0}, "camera pitch"),
 ])
 def test_bad_camera_flags(kwargs, message):
     arguments = {"calib": None, "fx": None, "fy": None, "cx": None, "cy": None} | kwargs

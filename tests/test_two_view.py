@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.road_scale import (
     fit_road_plane,
@@ -97,6 +98,25 @@ def test_a_slope_ahead_is_not_taken_for_the_road_under_the_camera():
     slope[:, 1] -= np.tan(np.radians(5.0)) * (slope[:, 2] - 5.0)  # rising 5 degrees ahead
     motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
     assert road_step_length_m(project(slope), project(slope @ R.T + t), K, motion, HEIGHT_M) is None
+
+
+def test_a_camera_pitched_down_finds_its_road_about_the_road_normal():
+    """A camera pitched 8 degrees down, moving along the road: its road plane is 8 degrees from the
+    camera's down axis, so it fails the 4 degree gate unless the camera says its pitch; then the plane comes
+    back exactly, in the camera's frame."""
+    _, road_level, _, _ = scene_and_motion()
+    camera = Camera(CameraIntrinsics(350.0, 350.0, 300.0, 92.0), pitch_deg=8.0)
+    levelling = camera.road_levelling  # camera -> level frame
+    road = road_level @ levelling  # the same road points in the pitched camera's frame
+    R = levelling.T @ so3_exp(np.array([0.0, 0.02, 0.0])) @ levelling  # a yaw about the road's normal
+    t = -R @ (levelling.T @ np.array([0.0, 0.0, 1.3]))  # 1.3 m along the road
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(road), bool))
+    moved = project(road), project(road @ R.T + t)
+    assert trusted_road_plane(*moved, K, motion) is None
+    plane = trusted_road_plane(*moved, K, motion, levelling=levelling)
+    assert HEIGHT_M / plane.distance == pytest.approx(1.3, rel=1e-6)
+    np.testing.assert_allclose(plane.normal, levelling.T @ [0.0, 1.0, 0.0], atol=1e-6)
+    assert np.degrees(np.arccos(plane.normal[1])) == pytest.approx(8.0, abs=1e-4)
 
 
 def test_a_road_whose_flow_is_lost_is_not_trusted_but_a_slow_step_is():

@@ -1,4 +1,4 @@
-"""The camera: pinhole intrinsics, lens distortion and the camera's height above the road.
+"""The camera: pinhole intrinsics, lens distortion, the camera's height above the road and its pitch.
 
 One home for everything that describes a camera, whatever the source (KITTI calib.txt, a calibration file,
 command-line flags, a ROS CameraInfo, an estimate from the motion). Pure data and maths over NumPy arrays
@@ -25,6 +25,7 @@ KITTI_CAMERA_HEIGHT_M = 1.65  # KITTI's left grey camera above the road (its pub
 MIN_FOCAL_PX = 1.0  # below a pixel no frame is imaged
 MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000 px frame: no odometry
 MAX_CAMERA_HEIGHT_M = 10.0  # a camera on a truck cab is ~3 m; beyond 10 m no road scale makes sense
+MAX_CAMERA_PITCH_DEG = 30.0  # a camera looking further down sees little but the bonnet and the road at its feet
 
 # model name -> accepted coefficient counts
 DISTORTION_MODELS: dict[str, tuple[int, ...]] = {
@@ -158,12 +159,15 @@ def undistortion_maps(image_hw: tuple[int, int], K: np.ndarray, distortion: Lens
 class Camera:
     """Everything flowvo needs to know about a camera: pinhole ``intrinsics`` (pixels of the frames),
     ``distortion`` of its lens, its ``height_m`` above the road (metres; None: not known, KITTI's 1.65 m is
-    then assumed) and where the intrinsics came from (``source``, one of :data:`CAMERA_SOURCES`)."""
+    then assumed), where the intrinsics came from (``source``, one of :data:`CAMERA_SOURCES`) and
+    ``pitch_deg``, how far its optical axis points below the road's plane (degrees, down positive; 0: mounted
+    level, as KITTI's)."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion = field(default=NO_DISTORTION)
     height_m: float | None = None
     source: str = "flags"
+    pitch_deg: float = 0.0
 
     @property
     def K(self) -> np.ndarray:
@@ -174,16 +178,26 @@ class Camera:
         """The height above the road the road scale uses, metres (KITTI's when not known)."""
         return KITTI_CAMERA_HEIGHT_M if self.height_m is None else self.height_m
 
+    @property
+    def road_levelling(self) -> np.ndarray:
+        """The rotation (3, 3) from the camera frame to the frame of a level camera at the same place, whose
+        down axis is the road's normal: a rotation about the camera's x axis by ``-pitch_deg``."""
+        pitch = math.radians(self.pitch_deg)
+        return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(pitch), math.sin(pitch)],
+                         [0.0, -math.sin(pitch), math.cos(pitch)]])
+
     def scaled(self, scale_x: float, scale_y: float) -> Camera:
-        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion and height unchanged)."""
-        return Camera(self.intrinsics.scaled(scale_x, scale_y), self.distortion, self.height_m, self.source)
+        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, pitch unchanged)."""
+        return Camera(self.intrinsics.scaled(scale_x, scale_y), self.distortion, self.height_m, self.source,
+                      self.pitch_deg)
 
     def record(self) -> dict:
         """The camera as ``run.json`` records it."""
         i = self.intrinsics
         return {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion_model": self.distortion.model,
                 "distortion": list(self.distortion.coefficients), "camera_height_m": self.camera_height_m,
-                "camera_height_given": self.height_m is not None, "source": self.source}
+                "camera_height_given": self.height_m is not None, "camera_pitch_deg": self.pitch_deg,
+                "source": self.source}
 
 
 def check_camera_height(height_m: float, where: str | None = None) -> float:
@@ -192,6 +206,15 @@ def check_camera_height(height_m: float, where: str | None = None) -> float:
         raise FlowvoError(f"camera height must be a finite number of metres in (0, {MAX_CAMERA_HEIGHT_M:g}], "
                           f"got {height_m}", where)
     return float(height_m)
+
+
+def check_camera_pitch(pitch_deg: float, where: str | None = None) -> float:
+    """``pitch_deg`` when it is a plausible mounting pitch (degrees, down positive); a one-line error otherwise."""
+    if not (isinstance(pitch_deg, int | float) and math.isfinite(pitch_deg)
+            and abs(pitch_deg) <= MAX_CAMERA_PITCH_DEG):
+        raise FlowvoError(f"camera pitch must be a finite number of degrees in [-{MAX_CAMERA_PITCH_DEG:g}, "
+                          f"{MAX_CAMERA_PITCH_DEG:g}] (down positive), got {pitch_deg}", where)
+    return float(pitch_deg)
 
 
 def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int] | None, where: str | None) -> None:

@@ -1,16 +1,25 @@
 """The camera of a drive, from what the user gave (a calibration file, ``--fx ...``, ``--dist``,
-``--camera-height``) and what the drive itself says (KITTI calib.txt, a ROS CameraInfo and /tf_static).
+``--camera-height``, ``--camera-pitch``) and what the drive itself says (KITTI calib.txt, a ROS CameraInfo and
+/tf_static).
 
 Precedence: intrinsics from ``--calib`` or ``--fx --fy --cx --cy`` replace the drive's; distortion from
 ``--dist`` replaces the calibration file's, which replaces the drive's; the camera height from
-``--camera-height``, else the calibration file's, else the drive's, else KITTI's 1.65 m (assumed, said so).
+``--camera-height``, else the calibration file's, else the drive's, else KITTI's 1.65 m (assumed, said so);
+the pitch likewise from ``--camera-pitch``, the calibration file's, the drive's, else 0 (mounted level).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from flowvo.camera import Camera, CameraIntrinsics, LensDistortion, check_camera_height, check_intrinsics
+from flowvo.camera import (
+    Camera,
+    CameraIntrinsics,
+    LensDistortion,
+    check_camera_height,
+    check_camera_pitch,
+    check_intrinsics,
+)
 from flowvo.errors import FlowvoError
 
 
@@ -24,23 +33,24 @@ class GivenCamera:
     height_m: float | None = None
     source: str | None = None
     where: str = "camera flags"
+    pitch_deg: float | None = None
 
 
 def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: float | None, cy: float | None,
                  distortion: tuple[float, ...] | None = None, distortion_model: str | None = None,
-                 camera_height_m: float | None = None) -> GivenCamera:
+                 camera_height_m: float | None = None, camera_pitch_deg: float | None = None) -> GivenCamera:
     """Parse the camera flags (one-line errors for partial or conflicting ones)."""
     numbers = {"--fx": fx, "--fy": fy, "--cx": cx, "--cy": cy}
     given = [name for name, value in numbers.items() if value is not None]
     if calib is not None and given:
         raise FlowvoError(f"give either --calib or {', '.join(given)}, not both")
-    intrinsics, file_distortion, file_height, source, where = None, None, None, None, "camera flags"
+    intrinsics, file_distortion, file_height, file_pitch, source, where = None, None, None, None, None, "camera flags"
     if calib is not None:
         from flowvo.calibration.files import read_camera_file
 
         camera_file = read_camera_file(calib)
         intrinsics, source, where = camera_file.intrinsics, "calib", calib
-        file_distortion, file_height = camera_file.distortion, camera_file.height_m
+        file_distortion, file_height, file_pitch = camera_file.distortion, camera_file.height_m, camera_file.pitch_deg
     elif given:
         missing = [name for name in numbers if name not in given]
         if missing:
@@ -53,7 +63,9 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
         file_distortion = LensDistortion(distortion_model or "plumb_bob", tuple(distortion))
     if camera_height_m is not None:
         file_height = check_camera_height(camera_height_m, "--camera-height")
-    return GivenCamera(intrinsics, file_distortion, file_height, source, where)
+    if camera_pitch_deg is not None:
+        file_pitch = check_camera_pitch(camera_pitch_deg, "--camera-pitch")
+    return GivenCamera(intrinsics, file_distortion, file_height, source, where, file_pitch)
 
 
 def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str,
@@ -67,7 +79,8 @@ def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[
     distortion = given.distortion or (drive.distortion if drive and given.intrinsics is None else None)
     height_m = next((h for h in (given.height_m, drive.height_m if drive else None, drive_height_m) if h is not None),
                     None)
+    pitch_deg = next((p for p in (given.pitch_deg, drive.pitch_deg if drive else None) if p is not None), 0.0)
     source = given.source or drive.source  # type: ignore[union-attr]
-    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source)
+    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source, pitch_deg)
     check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)
     return camera

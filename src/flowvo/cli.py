@@ -107,7 +107,7 @@ def _cmd_synth(args: argparse.Namespace) -> int:
     from flowvo.synth.synth_camera import SynthCamera
 
     camera = SynthCamera(args.camera_height, args.fov, LensDistortion(args.distortion_model, tuple(args.distortion)),
-                         args.fps)
+                         args.fps, args.camera_pitch)
     folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
                          args.scene, args.gt_flow, args.workers, args.max_speed, args.force, camera)
     for folder in folders:
@@ -116,7 +116,7 @@ def _cmd_synth(args: argparse.Namespace) -> int:
 
 
 def _add_synth(sub: argparse._SubParsersAction) -> None:
-    from flowvo.camera import KITTI_CAMERA_HEIGHT_M
+    from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG
     from flowvo.synth.synth_camera import PATH_RATE_HZ
     from flowvo.synth.world import SCENE_TYPES
 
@@ -134,6 +134,8 @@ def _add_synth(sub: argparse._SubParsersAction) -> None:
     camera.add_argument("--camera-height", type=_bounded(float, 0.0, 10.0, low_open=True),
                         default=KITTI_CAMERA_HEIGHT_M, metavar="M",
                         help="camera height above the road in metres (default 1.65)")
+    camera.add_argument("--camera-pitch", type=_bounded(float, -MAX_CAMERA_PITCH_DEG, MAX_CAMERA_PITCH_DEG),
+                        default=0.0, metavar="DEG", help="camera pitched down by DEG degrees (default 0: level)")
     camera.add_argument("--fov", type=_bounded(float, 20.0, 150.0), metavar="DEG",
                         help="horizontal field of view in degrees (default KITTI's focal length, ~81.6)")
     camera.add_argument("--distortion", "--dist", nargs="+", type=float, default=[], metavar="K",
@@ -276,6 +278,8 @@ def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None =
                        one_drive: bool = True) -> None:
     """The drive, camera and method options of ``run``, ``bench`` and ``batch`` (``one_drive`` False: no
     drive options but the bag topics, which apply to every bag of a batch)."""
+    from flowvo.camera import MAX_CAMERA_PITCH_DEG
+
     drive = p.add_argument_group("drive (one of)" if one_drive else "bags")
     if one_drive:
         drive.add_argument("--data", help="dataset root in the KITTI layout (with --sequence)")
@@ -296,6 +300,9 @@ def _add_drive_options(p: argparse.ArgumentParser, methods_default: str | None =
                         help="model of --dist (default plumb_bob)")
     camera.add_argument("--camera-height", type=_bounded(float, 0.0, 10.0, low_open=True), metavar="M",
                         help="camera height above the road in metres (default: the calibration's, else KITTI's 1.65)")
+    camera.add_argument("--camera-pitch", type=_bounded(float, -MAX_CAMERA_PITCH_DEG, MAX_CAMERA_PITCH_DEG),
+                        metavar="DEG", help="the camera points DEG degrees below the road's plane (down positive; "
+                                            "default: the calibration's, else 0: mounted level)")
     if methods_default is not None:
         p.add_argument("--method", choices=list(METHODS), default=methods_default, help=methods_help())
     p.add_argument("--model", help="network checkpoint for cnn and flowvo's fallback (default: the packaged model)")
@@ -315,7 +322,7 @@ def _run_options(args: argparse.Namespace, out: str) -> RunOptions:
                       camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
                       fy=args.fy, cx=args.cx, cy=args.cy, distortion=tuple(args.dist) if args.dist else None,
                       distortion_model=args.distortion_model, camera_height_m=args.camera_height,
-                      latency_frames=args.latency,
+                      camera_pitch_deg=args.camera_pitch, latency_frames=args.latency,
                       method=getattr(args, "method", DEFAULT_METHOD), model=args.model, flow_method=args.flow_method,
                       classical_scale=getattr(args, "scale_from", "height"),
                       max_frames=getattr(args, "max_frames", None))
@@ -330,8 +337,9 @@ def _camera_line(summary: dict) -> str:
     if not camera["camera_height_given"]:
         height += " (KITTI's)" if camera["source"] == "kitti" else \
             " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
+    pitch = f", pitched {camera['camera_pitch_deg']:g} deg down" if camera["camera_pitch_deg"] else ""
     return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "
-            f"cy {camera['cy']:.1f}, {distortion}, height {height}")
+            f"cy {camera['cy']:.1f}, {distortion}, height {height}{pitch}")
 
 
 def _estimate_line(camera: dict) -> str:

@@ -45,6 +45,7 @@ class RunOptions:
     distortion: tuple[float, ...] | None = None  # lens distortion coefficients (``distortion_model``'s order)
     distortion_model: str | None = None  # plumb_bob (default for --dist), rational_polynomial, equidistant
     camera_height_m: float | None = None  # above the road; None: the calibration's, else KITTI's 1.65 m
+    camera_pitch_deg: float | None = None  # below the road's plane, down +; None: the calibration's, else 0
     latency_frames: int | None = None  # the scale window's latency (frames; None: its default); windowed methods
     method: str = DEFAULT_METHOD
     model: str | None = None
@@ -77,7 +78,7 @@ def open_drive(options: RunOptions) -> Drive:
         raise FlowvoError("give exactly one drive: --data ROOT --sequence NN, --video FILE or --bag PATH --topic T"
                           + (f" (got {' and '.join(drives)})" if drives else ""))
     given = given_camera(options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
-                         options.distortion_model, options.camera_height_m)
+                         options.distortion_model, options.camera_height_m, options.camera_pitch_deg)
     source = _open_source(options, given)
     where = str(options.data or options.video or options.bag)
     estimated = None

@@ -138,7 +138,7 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
 
 def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
                        max_tilt_rad: float = np.radians(4.0), min_inlier_fraction: float = 0.05,
-                       min_parallax_px: float = 0.0) -> RoadPlane | None:
+                       min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
     """The road plane the camera stands on, from road correspondences (distance in units of the step), or
     None when no plane is found, or when it is not that road: tilted more than ``max_tilt_rad`` from the
     camera's down axis (a slope ahead, a hill side) or fitting fewer than ``min_inlier_fraction`` of the
@@ -146,17 +146,24 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
     degrees and 8 % inliers; good ones 1.4 degrees, 30 %. None too when nine in ten road points moved less
     than ``min_parallax_px`` (pixels) beyond what the rotation explains: a road whose flow is lost (no
     texture, a car right in front moving along) has no depth to triangulate (the nearest rows move most,
-    hence the 90th percentile: at walking pace the far rows barely move)."""
+    hence the 90th percentile: at walking pace the far rows barely move).
+
+    ``levelling``: for a camera not mounted level, the rotation from its frame to a level camera's
+    (:attr:`flowvo.camera.Camera.road_levelling`); the plane is fitted and gated there, about the road's
+    normal, and returned in the camera's frame."""
     if len(points_prev) < MIN_ROAD_POINTS:  # every road point left the frame, say
         return None
     if min_parallax_px and np.percentile(translation_parallax_px(points_prev, points_next, K, motion.R),
                                          90) < min_parallax_px:
         return None
-    plane = fit_road_plane(triangulate(points_prev, points_next, K, motion))
+    points = triangulate(points_prev, points_next, K, motion)
+    plane = fit_road_plane(points if levelling is None else points @ levelling.T)
     if plane is None or plane.distance <= 0 or plane.tilt_rad > max_tilt_rad \
             or plane.inlier_fraction < min_inlier_fraction:
         return None
-    return plane
+    if levelling is None:
+        return plane
+    return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)
 
 
 FIT_PITCH_SIGMA_RAD = 0.005  # a plane's normal from one step of road, its centre 7.4 step lengths ahead (real

@@ -89,7 +89,7 @@ def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: d
     if drive.kind == "kitti":
         return
     given = (options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
-             options.distortion_model, options.camera_height_m)
+             options.distortion_model, options.camera_height_m, options.camera_pitch_deg)
     if given not in intrinsics_checked:
         try:
             given_camera(*given)

@@ -31,14 +31,15 @@ MAX_CALIBRATION_BYTES = 1_000_000  # calibration files are a few kB; anything la
 @dataclass(frozen=True)
 class CameraFile:
     """What a calibration file says: intrinsics (pixels), lens distortion, the camera height above the road
-    (metres, when the file has it), the image size (height, width) it was calibrated at (when stated) and
-    the kind of file."""
+    (metres, when the file has it), the image size (height, width) it was calibrated at (when stated), the
+    kind of file, and the camera's pitch below the road (degrees, when the file has it: KITTI calib.txt)."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion
     height_m: float | None
     image_size_hw: tuple[int, int] | None
     kind: str
+    pitch_deg: float | None = None
 
 
 def read_camera_file(path: str | Path) -> CameraFile:
@@ -78,7 +79,8 @@ def _kitti(path: Path) -> CameraFile:
     calibration = read_calibration(path)
     intrinsics = CameraIntrinsics.from_matrix(calibration.K0)
     check_intrinsics(intrinsics, None, str(path))
-    return CameraFile(intrinsics, calibration.distortion, calibration.camera_height_m, None, "kitti calib.txt")
+    return CameraFile(intrinsics, calibration.distortion, calibration.camera_height_m, None, "kitti calib.txt",
+                      calibration.camera_pitch_deg)
 
 
 def _opencv_storage(text: str, path: Path) -> CameraFile:

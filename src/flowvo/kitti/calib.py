@@ -1,8 +1,9 @@
 """KITTI ``calib.txt``: projection matrices P0..P3 (3x4, pixels) and the optional velodyne ``Tr``.
 
-flowvo also reads three optional lines that describe the camera beyond KITTI's: ``distortion_model: NAME``
-(default plumb_bob, or rational_polynomial for 8 numbers), ``distortion: k1 k2 p1 p2 [k3 ...]`` and
-``camera_height_m: H`` (metres above the road), and writes them for cameras that have them.
+flowvo also reads four optional lines that describe the camera beyond KITTI's: ``distortion_model: NAME``
+(default plumb_bob, or rational_polynomial for 8 numbers), ``distortion: k1 k2 p1 p2 [k3 ...]``,
+``camera_height_m: H`` (metres above the road) and ``camera_pitch_deg: P`` (degrees below the road's plane,
+down positive), and writes them for cameras that have them.
 """
 
 from __future__ import annotations
@@ -12,12 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height
+from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height, check_camera_pitch
 from flowvo.errors import FlowvoError
 from flowvo.text_numbers import parse_float
 
 REQUIRED_KEYS = ("P0",)
-CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m")
+CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m", "camera_pitch_deg")
 
 
 @dataclass(frozen=True)
@@ -27,6 +28,7 @@ class Calibration:
     matrices: dict[str, np.ndarray] = field(default_factory=dict)
     distortion: LensDistortion = NO_DISTORTION
     camera_height_m: float | None = None
+    camera_pitch_deg: float | None = None
 
     @property
     def K0(self) -> np.ndarray:
@@ -85,10 +87,11 @@ def _check_projection(P: np.ndarray, path: Path, line_number: int) -> None:
                           "of the 12)", path, line_number)
 
 
-def _camera_lines(extras: dict[str, tuple[int, str]], path: Path) -> tuple[LensDistortion, float | None]:
-    """The lens distortion and camera height of the optional camera lines."""
+def _camera_lines(extras: dict[str, tuple[int, str]], path: Path
+                  ) -> tuple[LensDistortion, float | None, float | None]:
+    """The lens distortion, camera height and camera pitch of the optional camera lines."""
     numbers: dict[str, list[float]] = {}
-    for key in ("distortion", "camera_height_m"):
+    for key in ("distortion", "camera_height_m", "camera_pitch_deg"):
         if key in extras:
             line_number, text = extras[key]
             try:
@@ -110,7 +113,13 @@ def _camera_lines(extras: dict[str, tuple[int, str]], path: Path) -> tuple[LensD
         if len(numbers["camera_height_m"]) != 1:
             raise FlowvoError("camera_height_m: expected one number (metres)", path, line_number)
         height_m = check_camera_height(numbers["camera_height_m"][0], f"{path}:{line_number}")
-    return distortion, height_m
+    pitch_deg = None
+    if "camera_pitch_deg" in numbers:
+        line_number, _ = extras["camera_pitch_deg"]
+        if len(numbers["camera_pitch_deg"]) != 1:
+            raise FlowvoError("camera_pitch_deg: expected one number (degrees)", path, line_number)
+        pitch_deg = check_camera_pitch(numbers["camera_pitch_deg"][0], f"{path}:{line_number}")
+    return distortion, height_m, pitch_deg
 
 
 def format_calibration(calibration: Calibration) -> str:
@@ -123,4 +132,6 @@ def format_calibration(calibration: Calibration) -> str:
         lines.append("distortion: " + " ".join(f"{v:.12e}" for v in calibration.distortion.coefficients))
     if calibration.camera_height_m is not None:
         lines.append(f"camera_height_m: {calibration.camera_height_m:.6f}")
+    if calibration.camera_pitch_deg is not None:
+        lines.append(f"camera_pitch_deg: {calibration.camera_pitch_deg:.6f}")
     return "\n".join(lines) + "\n"

@@ -133,6 +133,8 @@ class FlowGeometryStep(WorkingFrames):
         self.fallback_policy = NetworkFallbackPolicy()
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = self.camera.camera_height_m
+        self.levelling = self.camera.road_levelling if self.camera.pitch_deg else None  # road planes about the road's
+        # normal (a camera mounted level needs no rotation)
         if image_size_hw[1] < MIN_FRAME_WIDTH_PX:
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too narrow for the default "
                               f"method: it needs at least {MIN_FRAME_WIDTH_PX} px (narrower ones give a wrong or "
@@ -278,7 +280,8 @@ class FlowGeometryStep(WorkingFrames):
                                                                  threshold_px=self.threshold_px)
         self.road_normal.advance(fit.R, dt_s)
         plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
-                                                                min_parallax_px=self.min_road_parallax_px)
+                                                                min_parallax_px=self.min_road_parallax_px,
+                                                                levelling=self.levelling)
         if plane is not None:
             plane = self.road_normal.smoothed(plane, key_fit.R, keep=road_measured)
         road_m = None if plane is None else self.camera_height_m / plane.distance  # since the key frame

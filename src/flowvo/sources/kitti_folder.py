@@ -31,7 +31,7 @@ class KittiFolderSource:
         """From the sequence's calib.txt."""
         calibration = self.sequence.calibration
         return Camera(CameraIntrinsics.from_matrix(calibration.K0), calibration.distortion,
-                      calibration.camera_height_m, "kitti")
+                      calibration.camera_height_m, "kitti", calibration.camera_pitch_deg or 0.0)
 
     @property
     def camera_height_m(self) -> float | None:

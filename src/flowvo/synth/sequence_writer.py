@@ -51,9 +51,11 @@ class SynthSpec:
     frames: int | None = None
 
     def frame_poses(self) -> np.ndarray:
-        """Camera-to-world poses (F, 4, 4) of the rendered frames, at the camera's frame rate."""
+        """Camera-to-world poses (F, 4, 4) of the rendered frames, at the camera's frame rate; the drive's
+        poses are a level camera's, the rendered camera is pitched on it by its mounting."""
         frames = self.frames or frames_spanning(len(self.T_world_cam), PATH_RATE_HZ, self.camera.fps)
-        return resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, frames)
+        level = resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, frames)
+        return level if not self.camera.pitch_deg else level @ self.camera.mounting()
 
 
 def spec_digest(spec: SynthSpec) -> str:
@@ -87,7 +89,7 @@ def kitti_calibration(K: np.ndarray, camera: SynthCamera | None = None) -> Calib
     matrices = {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
     if camera is None or camera.is_kitti:
         return Calibration(matrices)
-    return Calibration(matrices, camera.distortion, camera.height_m)
+    return Calibration(matrices, camera.distortion, camera.height_m, camera.pitch_deg or None)
 
 
 _worker_state: dict = {}

@@ -16,6 +16,7 @@ from flowvo.camera import (
     NO_DISTORTION,
     LensDistortion,
     check_camera_height,
+    check_camera_pitch,
     distort_points,
     undistort_points,
 )
@@ -32,15 +33,18 @@ LENS_CHECK_SAMPLES = 200  # points per centre-to-corner line of the one-to-one c
 @dataclass(frozen=True)
 class SynthCamera:
     """``height_m`` above the road (metres), horizontal field of view ``fov_deg`` (degrees over the image
-    width; None = KITTI's focal length, ~81.6 deg), lens ``distortion`` and frame rate ``fps`` (Hz)."""
+    width; None = KITTI's focal length, ~81.6 deg), lens ``distortion``, frame rate ``fps`` (Hz) and
+    ``pitch_deg``, how far the camera is pitched down from level (degrees)."""
 
     height_m: float = KITTI_CAMERA_HEIGHT_M
     fov_deg: float | None = None
     distortion: LensDistortion = field(default=NO_DISTORTION)
     fps: float = PATH_RATE_HZ
+    pitch_deg: float = 0.0
 
     def __post_init__(self) -> None:
         check_camera_height(self.height_m, "--camera-height")
+        check_camera_pitch(self.pitch_deg, "--camera-pitch")
         if self.fov_deg is not None and not FOV_RANGE_DEG[0] <= self.fov_deg <= FOV_RANGE_DEG[1]:
             raise FlowvoError(f"--fov {self.fov_deg:g}: use a horizontal field of view in "
                               f"[{FOV_RANGE_DEG[0]:g}, {FOV_RANGE_DEG[1]:g}] degrees")
@@ -58,10 +62,21 @@ class SynthCamera:
             return kitti_focal_px
         return width_px / 2.0 / math.tan(math.radians(self.fov_deg) / 2.0)
 
+    def mounting(self) -> np.ndarray:
+        """``T_level_cam`` (4, 4): the camera pitched down by ``pitch_deg`` about its x axis (its optical axis
+        ``(0, sin, cos)`` in the frame of a level camera at the same place; the rotation is
+        :attr:`flowvo.camera.Camera.road_levelling`)."""
+        pitch = math.radians(self.pitch_deg)
+        T = np.eye(4)
+        T[1:3, 1:3] = [[math.cos(pitch), math.sin(pitch)], [-math.sin(pitch), math.cos(pitch)]]
+        return T
+
     def record(self) -> dict:
-        """The camera as ``synthetic.json`` records it."""
+        """The camera as ``synthetic.json`` records it (the pitch when it has one: renders of level cameras
+        made before the option keep their record, and resume)."""
+        pitch = {"pitch_deg": self.pitch_deg} if self.pitch_deg else {}
         return {"camera_height_m": self.height_m, "fov_deg": self.fov_deg, "distortion_model": self.distortion.model,
-                "distortion": list(self.distortion.coefficients), "fps": self.fps}
+                "distortion": list(self.distortion.coefficients), "fps": self.fps, **pitch}
 
 
 def check_lens(distortion: LensDistortion, K: np.ndarray, size_hw: tuple[int, int]) -> None:
