@@ -69,9 +69,9 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
 
 
 def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str,
-                 drive_height_m: float | None = None) -> Camera:
-    """The camera a drive runs with: ``given`` over the ``drive``'s own (and the height the drive states,
-    ``drive_height_m``), checked against its frames."""
+                 drive_height_m: float | None = None, drive_pitch_deg: float | None = None) -> Camera:
+    """The camera a drive runs with: ``given`` over the ``drive``'s own (and the height and pitch the drive
+    states, ``drive_height_m`` and ``drive_pitch_deg``), checked against its frames."""
     if given.intrinsics is None and drive is None:
         raise FlowvoError("no camera intrinsics: give --calib FILE or --fx --fy --cx --cy (pixels of the frames)",
                           where)
@@ -79,8 +79,10 @@ def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[
     distortion = given.distortion or (drive.distortion if drive and given.intrinsics is None else None)
     height_m = next((h for h in (given.height_m, drive.height_m if drive else None, drive_height_m) if h is not None),
                     None)
-    pitch_deg = next((p for p in (given.pitch_deg, drive.pitch_deg if drive else None) if p is not None), 0.0)
+    pitch_deg = next((p for p in (given.pitch_deg, drive_pitch_deg, drive.pitch_deg if drive else None)
+                      if p is not None), 0.0)
     source = given.source or drive.source  # type: ignore[union-attr]
     camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source, pitch_deg)
     check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)
+    check_camera_pitch(pitch_deg, where)  # a drive's own (a bag's /tf_static) may be beyond what flowvo handles
     return camera

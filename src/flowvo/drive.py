@@ -87,7 +87,8 @@ def open_drive(options: RunOptions) -> Drive:
 
         estimated = estimate_camera(source, where)
     own_camera = estimated.camera if estimated else source.camera
-    return Drive(source, drive_camera(given, own_camera, source.image_size_hw, where, source.camera_height_m),
+    return Drive(source, drive_camera(given, own_camera, source.image_size_hw, where, source.camera_height_m,
+                                      source.camera_pitch_deg),
                  estimated)
 
 

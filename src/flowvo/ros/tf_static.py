@@ -1,8 +1,10 @@
-"""The camera's height above the ground from a bag's static transforms (``/tf_static``, tf2_msgs/TFMessage).
+"""The camera's height above the ground and its pitch from a bag's static transforms (``/tf_static``,
+tf2_msgs/TFMessage).
 
 ROS names the ground under a robot or car ``base_footprint`` (REP 105: the base's projection on the ground,
 z up); the image messages name their optical frame in ``header.frame_id``. The height is the z of the
-camera frame's origin in the ground frame, through the chain of static transforms between them.
+camera frame's origin in the ground frame, through the chain of static transforms between them; the pitch
+is how far the optical axis (the optical frame's z) points below the ground's plane.
 """
 
 from __future__ import annotations
@@ -58,3 +60,11 @@ def camera_height_m(transforms: list[StaticTransform], camera_frame: str, ground
     if pose is None or not pose[2, 3] > 0:
         return None
     return float(pose[2, 3])
+
+
+def camera_pitch_deg(transforms: list[StaticTransform], camera_frame: str, ground_frame: str = GROUND_FRAME
+                     ) -> float | None:
+    """How far the optical axis (z) of ``camera_frame`` points below ``ground_frame``'s plane (degrees, down
+    positive), or None when the static transforms do not connect them."""
+    pose = frame_in(transforms, camera_frame, ground_frame)
+    return None if pose is None else float(np.degrees(np.arcsin(np.clip(-pose[2, 2], -1.0, 1.0))))

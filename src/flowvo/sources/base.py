@@ -23,7 +23,8 @@ class FrameSource(Protocol):
     ``camera``: what the drive itself says of its camera (KITTI calib.txt, a ROS CameraInfo), in pixels of
     the frames as ``frames()`` yields them; None when it says nothing (a video).
     ``camera_height_m``: the camera's height above the road when the drive says it (a bag's /tf_static, a
-    KITTI calib.txt line), else None.
+    KITTI calib.txt line), else None; ``camera_pitch_deg`` likewise its pitch below the road (degrees, down
+    positive).
     ``image_size_hw``: (height, width) of every frame.
     ``frame_count``: number of frames when known in advance (None for streams of unknown length).
     ``ground_truth``: camera-to-world poses per frame when the source has them, else None.
@@ -37,6 +38,7 @@ class FrameSource(Protocol):
     name: str
     camera: Camera | None
     camera_height_m: float | None
+    camera_pitch_deg: float | None
     stamps_ns: np.ndarray | None
     image_size_hw: tuple[int, int]
     frame_count: int | None

@@ -38,6 +38,11 @@ class KittiFolderSource:
         """From the sequence's calib.txt, when it has the line."""
         return self.camera.height_m
 
+    @property
+    def camera_pitch_deg(self) -> float | None:
+        """From the sequence's calib.txt, when it has the line."""
+        return self.sequence.calibration.camera_pitch_deg
+
     @cached_property
     def ground_truth(self) -> Trajectory | None:
         """``ROOT/poses/NAME.txt`` when it exists."""

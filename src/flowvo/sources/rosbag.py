@@ -34,7 +34,7 @@ from flowvo.ros.images import (
     image_message_to_grey,
     raw_image_size_hw,
 )
-from flowvo.ros.tf_static import StaticTransform, camera_height_m
+from flowvo.ros.tf_static import StaticTransform, camera_height_m, camera_pitch_deg
 from flowvo.sources.base import safe_source_name
 from flowvo.trajectory import Trajectory
 
@@ -57,10 +57,11 @@ class BagSource:
     is_synthetic: bool = False
 
     def __init__(self, path: Path, topic: str, message_type: str, name: str, camera: Camera | None,
-                 image_size_hw: tuple[int, int], stamps_ns: np.ndarray, camera_height_m: float | None = None
-                 ) -> None:
+                 image_size_hw: tuple[int, int], stamps_ns: np.ndarray, camera_height_m: float | None = None,
+                 camera_pitch_deg: float | None = None) -> None:
         self.path = path
         self.camera_height_m = camera_height_m  # from /tf_static, when the bag has it
+        self.camera_pitch_deg = camera_pitch_deg  # likewise
         self.topic = topic
         self.message_type = message_type
         self.name = name
@@ -106,18 +107,18 @@ def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None 
                               f"{_list_topics(reader, (CAMERA_INFO_TYPE,))}), --calib or --fx/--fy/--cx/--cy", bag)
         else:
             camera = None  # the given intrinsics describe it
-        height_m = _tf_static_height_m(reader, bag, topic)
+        height_m, pitch_deg = _tf_static_mounting(reader, bag, topic)
     name = safe_source_name(bag.name if bag.is_dir() else bag.stem, "bag")  # a ROS 2 bag is a folder
     return BagSource(bag, topic, message_type, name, camera, image_size_hw,
-                     np.asarray(stamps_ns, dtype=np.int64), height_m)
+                     np.asarray(stamps_ns, dtype=np.int64), height_m, pitch_deg)
 
 
-def _tf_static_height_m(reader: Any, bag: Path, topic: str) -> float | None:
-    """The image frame's height above ``base_footprint`` from ``/tf_static`` (None when the bag has no such
-    transforms or they do not connect the two frames)."""
+def _tf_static_mounting(reader: Any, bag: Path, topic: str) -> tuple[float | None, float | None]:
+    """The image frame's height above ``base_footprint`` and its pitch below it (degrees) from ``/tf_static``
+    (None each when the bag has no such transforms or they do not connect the two frames)."""
     info = reader.topics.get(TF_STATIC_TOPIC)
     if info is None or info.msgtype != TF_MESSAGE_TYPE:
-        return None
+        return None, None
     with closing(_topic_messages(reader, bag, topic)) as messages:
         camera_frame = next(messages)[1].header.frame_id
     transforms = [StaticTransform(t.header.frame_id, t.child_frame_id,
@@ -125,7 +126,7 @@ def _tf_static_height_m(reader: Any, bag: Path, topic: str) -> float | None:
                                   (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
                                    t.transform.rotation.w))
                   for _, msg in _topic_messages(reader, bag, TF_STATIC_TOPIC) for t in msg.transforms]
-    return camera_height_m(transforms, camera_frame)
+    return camera_height_m(transforms, camera_frame), camera_pitch_deg(transforms, camera_frame)
 
 
 def _check_bag_path(path: Path) -> Path:
