@@ -1,5 +1,6 @@
-"""flowvo synth with cameras other than KITTI's: height, field of view, lens distortion, frame rate."""
+"""flowvo synth with cameras other than KITTI's: height, field of view, lens distortion, frame rate, pitch."""
 
+import json
 import math
 
 import cv2
@@ -138,3 +139,8 @@ def test_default_method_on_a_camera_pitched_8_degrees_down_is_within_1_3x_of_kit
     level, every road plane is 8 degrees off the camera's down axis and refused: 47 %, docs/camera.md)."""
     t_err = _t_err_percent(tmp_path, SynthCamera(pitch_deg=8.0))
     assert t_err <= 1.3 * kitti_camera_t_err, f"t_err {t_err:.2f} % against {kitti_camera_t_err:.2f} % (KITTI's)"
+    planes = json.loads((tmp_path / "run" / "run.json").read_text())["road_planes"]
+    assert planes["tilted_median_pitch_deg"] is None and planes["trusted"] > 100  # no hint: the pitch was given
+    summary = run(RunOptions(out=str(tmp_path / "level"), data=str(tmp_path / "data"), sequence="00",
+                             camera_pitch_deg=0.0))  # the same drive taken for level: every plane leans 8 deg
+    assert summary["road_planes"]["tilted_median_pitch_deg"] == pytest.approx(8.0, abs=0.5)

@@ -165,3 +165,24 @@ def test_road_grid_lies_in_the_band_ahead_of_the_camera():
     road = road_grid((188, 620), K)
     assert road[:, 1].min() >= K[1, 2] + 0.1 * 188 - 1 and road[:, 1].max() <= K[1, 2] + 0.45 * 188
     assert np.abs(road[:, 0] - K[0, 2]).max() <= 0.2 * 620
+
+
+def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_planes_lean_alike():
+    from flowvo.road_scale import MIN_TILTED_FOR_HINT, RoadPlane, RoadPlaneTally
+
+    def leaning(pitch_deg):
+        pitch = np.radians(pitch_deg)
+        return RoadPlane(50.0, np.array([0.0, np.cos(pitch), np.sin(pitch)]), 0.5, np.zeros(3))
+
+    tally = RoadPlaneTally()
+    for k in range(MIN_TILTED_FOR_HINT + 5):
+        tally.add(leaning(8.0 + 0.1 * (k % 3)), trusted=False)
+    tally.add(leaning(1.0), trusted=True)
+    assert tally.mounting_hint_deg() == pytest.approx(8.1)
+    assert tally.record() == {"trusted": 1, "refused_as_tilted": MIN_TILTED_FOR_HINT + 5,
+                              "tilted_median_pitch_deg": 8.1}
+    tally.trusted += MIN_TILTED_FOR_HINT + 5  # as many trusted: a hilly drive, not a pitched camera
+    assert tally.mounting_hint_deg() is None
+    few = RoadPlaneTally()
+    few.add(leaning(-9.0), trusted=False)  # refused, but one plane says nothing of the mounting
+    assert few.tilted_pitches_deg == [pytest.approx(-9.0)] and few.mounting_hint_deg() is None

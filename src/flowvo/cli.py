@@ -361,6 +361,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if "estimate" in summary["camera"]:
         print(_estimate_line(summary["camera"]))
     print(_camera_line(summary))
+    planes = summary.get("road_planes", {})
+    if planes.get("tilted_median_pitch_deg") is not None:
+        hint, pitch = planes["tilted_median_pitch_deg"], summary["camera"]["camera_pitch_deg"]
+        print(f"warning: {planes['refused_as_tilted']} road planes refused as tilted ({planes['trusted']} trusted), "
+              f"by {hint:+.1f} deg of pitch (median): a camera mounted pitched needs --camera-pitch "
+              f"{pitch + hint:.1f} (docs/camera.md)")
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     if "mcap" in summary:

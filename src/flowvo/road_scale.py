@@ -136,34 +136,53 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre)
 
 
-def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
-                       max_tilt_rad: float = np.radians(4.0), min_inlier_fraction: float = 0.05,
-                       min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
-    """The road plane the camera stands on, from road correspondences (distance in units of the step), or
-    None when no plane is found, or when it is not that road: tilted more than ``max_tilt_rad`` from the
-    camera's down axis (a slope ahead, a hill side) or fitting fewer than ``min_inlier_fraction`` of the
-    points. Measured on the real clips, step lengths off by more than 15 % came with a median tilt of 3-8
-    degrees and 8 % inliers; good ones 1.4 degrees, 30 %. None too when nine in ten road points moved less
-    than ``min_parallax_px`` (pixels) beyond what the rotation explains: a road whose flow is lost (no
-    texture, a car right in front moving along) has no depth to triangulate (the nearest rows move most,
-    hence the 90th percentile: at walking pace the far rows barely move).
+MAX_ROAD_TILT_RAD = np.radians(4.0)
+MIN_ROAD_INLIER_FRACTION = 0.05
 
-    ``levelling``: for a camera not mounted level, the rotation from its frame to a level camera's
-    (:attr:`flowvo.camera.Camera.road_levelling`); the plane is fitted and gated there, about the road's
-    normal, and returned in the camera's frame."""
+
+def road_plane_candidate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                         min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
+    """The plane fitted to road correspondences (distance in units of the step), before the gates of
+    :func:`is_trusted_road`, in the level frame (``levelling``: for a camera not mounted level, the rotation
+    from its frame to a level camera's, :attr:`flowvo.camera.Camera.road_levelling`; None: the camera's own
+    frame). None when no plane is found, and when nine in ten road points moved less than ``min_parallax_px``
+    (pixels) beyond what the rotation explains: a road whose flow is lost (no texture, a car right in front
+    moving along) has no depth to triangulate (the nearest rows move most, hence the 90th percentile: at
+    walking pace the far rows barely move)."""
     if len(points_prev) < MIN_ROAD_POINTS:  # every road point left the frame, say
         return None
     if min_parallax_px and np.percentile(translation_parallax_px(points_prev, points_next, K, motion.R),
                                          90) < min_parallax_px:
         return None
     points = triangulate(points_prev, points_next, K, motion)
-    plane = fit_road_plane(points if levelling is None else points @ levelling.T)
-    if plane is None or plane.distance <= 0 or plane.tilt_rad > max_tilt_rad \
-            or plane.inlier_fraction < min_inlier_fraction:
-        return None
+    return fit_road_plane(points if levelling is None else points @ levelling.T)
+
+
+def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
+                    min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION) -> bool:
+    """Whether a candidate plane (level frame) is the road the camera stands on: below the camera, tilted at
+    most ``max_tilt_rad`` from the road's normal (else a slope ahead, a hill side) and fitting at least
+    ``min_inlier_fraction`` of the points. Measured on the real clips, step lengths off by more than 15 %
+    came with a median tilt of 3-8 degrees and 8 % inliers; good ones 1.4 degrees, 30 %."""
+    return plane.distance > 0 and plane.tilt_rad <= max_tilt_rad and plane.inlier_fraction >= min_inlier_fraction
+
+
+def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane:
+    """A plane of the level frame in the camera's frame (``levelling`` as in :func:`road_plane_candidate`)."""
     if levelling is None:
         return plane
     return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)
+
+
+def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                       max_tilt_rad: float = MAX_ROAD_TILT_RAD, min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION,
+                       min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
+    """The road plane the camera stands on, from road correspondences (distance in units of the step, the
+    camera's frame), or None: :func:`road_plane_candidate` that passes :func:`is_trusted_road`."""
+    plane = road_plane_candidate(points_prev, points_next, K, motion, min_parallax_px, levelling)
+    if plane is None or not is_trusted_road(plane, max_tilt_rad, min_inlier_fraction):
+        return None
+    return in_camera_frame(plane, levelling)
 
 
 FIT_PITCH_SIGMA_RAD = 0.005  # a plane's normal from one step of road, its centre 7.4 step lengths ahead (real
@@ -234,6 +253,41 @@ def road_homography(K: np.ndarray, motion: EssentialMotion, plane: RoadPlane) ->
     pixels): ``K (R + t n^T / d) K^-1``, with the plane ``n . X = d`` in the first camera's frame and the
     motion's unit translation (the plane's distance is in the same units)."""
     return K @ (motion.R + np.outer(motion.t_dir, plane.normal) / plane.distance) @ np.linalg.inv(K)
+
+
+MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before their pitch says anything of the mounting
+
+
+class RoadPlaneTally:
+    """How the drive's candidate road planes fared: trusted, or refused as tilted (with the pitch of each:
+    degrees, the angle of its normal from the road's normal about the camera's x axis, positive when the
+    camera looks further down than it was said to). A camera pitched down but taken for level sees every
+    road plane tilted by its pitch: most planes refused, their pitches alike."""
+
+    def __init__(self) -> None:
+        self.trusted = 0
+        self.tilted_pitches_deg: list[float] = []
+
+    def add(self, plane: RoadPlane, trusted: bool, max_tilt_rad: float = MAX_ROAD_TILT_RAD) -> None:
+        """Count a candidate plane (level frame) and whether it was trusted."""
+        if trusted:
+            self.trusted += 1
+        elif plane.tilt_rad > max_tilt_rad:
+            self.tilted_pitches_deg.append(float(np.degrees(np.arctan2(plane.normal[2], plane.normal[1]))))
+
+    def mounting_hint_deg(self) -> float | None:
+        """The median pitch of the refused planes when most candidate planes were refused as tilted, at least
+        ``MIN_TILTED_FOR_HINT`` of them (the camera's pitch is then likely off by it), else None."""
+        tilted = len(self.tilted_pitches_deg)
+        if tilted < MIN_TILTED_FOR_HINT or tilted <= self.trusted:
+            return None
+        return float(np.median(self.tilted_pitches_deg))
+
+    def record(self) -> dict:
+        """The tally as ``run.json`` records it."""
+        hint = self.mounting_hint_deg()
+        return {"trusted": self.trusted, "refused_as_tilted": len(self.tilted_pitches_deg),
+                "tilted_median_pitch_deg": None if hint is None else round(hint, 2)}
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own

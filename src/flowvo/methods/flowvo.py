@@ -32,12 +32,15 @@ from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
     NetworkFallbackPolicy,
     RoadNormal,
+    RoadPlaneTally,
+    in_camera_frame,
+    is_trusted_road,
     road_crop,
     road_grid,
     road_homography,
+    road_plane_candidate,
     road_points_in_view,
     road_room,
-    trusted_road_plane,
 )
 from flowvo.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.scale_window import ScaleWindow, StepScale
@@ -131,6 +134,7 @@ class FlowGeometryStep(WorkingFrames):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
         self.fallback = fallback
         self.fallback_policy = NetworkFallbackPolicy()
+        self.road_tally = RoadPlaneTally()
         self.estimator = create_estimator(flow_method)
         self.camera_height_m = self.camera.camera_height_m
         self.levelling = self.camera.road_levelling if self.camera.pitch_deg else None  # road planes about the road's
@@ -279,9 +283,12 @@ class FlowGeometryStep(WorkingFrames):
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
         self.road_normal.advance(fit.R, dt_s)
-        plane = None if key_fit is None else trusted_road_plane(flow.road_prev, flow.road_next, self.K, key_fit,
-                                                                min_parallax_px=self.min_road_parallax_px,
-                                                                levelling=self.levelling)
+        plane = None if key_fit is None else road_plane_candidate(flow.road_prev, flow.road_next, self.K, key_fit,
+                                                                  self.min_road_parallax_px, self.levelling)
+        if plane is not None:
+            trusted = is_trusted_road(plane)
+            self.road_tally.add(plane, trusted)
+            plane = in_camera_frame(plane, self.levelling) if trusted else None
         if plane is not None:
             plane = self.road_normal.smoothed(plane, key_fit.R, keep=road_measured)
         road_m = None if plane is None else self.camera_height_m / plane.distance  # since the key frame
@@ -338,9 +345,11 @@ class FlowGeometryStep(WorkingFrames):
         return [] if self.window is None else self.window.flush()
 
     def summary(self) -> dict:
-        """How many steps took the network's distance (no trustworthy road plane for a while), and the
-        window's latency (frames: how late each motion is final)."""
+        """How many steps took the network's distance (no trustworthy road plane for a while), how the road
+        planes fared (:class:`RoadPlaneTally`), and the window's latency (frames: how late each motion is
+        final)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
+        kept["road_planes"] = self.road_tally.record()
         if self.window is not None:
             kept["scale_window"] = {"latency_frames": self.window.latency_frames, "window_s": self.window.window_s}
         return kept
