@@ -181,10 +181,8 @@ class Camera:
     @property
     def road_levelling(self) -> np.ndarray:
         """The rotation (3, 3) from the camera frame to the frame of a level camera at the same place, whose
-        down axis is the road's normal: a rotation about the camera's x axis by ``-pitch_deg``."""
-        pitch = math.radians(self.pitch_deg)
-        return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(pitch), math.sin(pitch)],
-                         [0.0, -math.sin(pitch), math.cos(pitch)]])
+        down axis is the road's normal (:func:`pitch_rotation`)."""
+        return pitch_rotation(self.pitch_deg)
 
     def scaled(self, scale_x: float, scale_y: float) -> Camera:
         """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, pitch unchanged)."""
@@ -206,6 +204,14 @@ def check_camera_height(height_m: float, where: str | None = None) -> float:
         raise FlowvoError(f"camera height must be a finite number of metres in (0, {MAX_CAMERA_HEIGHT_M:g}], "
                           f"got {height_m}", where)
     return float(height_m)
+
+
+def pitch_rotation(pitch_deg: float) -> np.ndarray:
+    """``R_level_cam`` (3, 3): a camera pitched down by ``pitch_deg`` (degrees) about its x axis, in the frame
+    of a level camera at the same place (its optical axis there is ``(0, sin, cos)``, y down)."""
+    pitch = math.radians(pitch_deg)
+    return np.array([[1.0, 0.0, 0.0], [0.0, math.cos(pitch), math.sin(pitch)],
+                     [0.0, -math.sin(pitch), math.cos(pitch)]])
 
 
 def check_camera_pitch(pitch_deg: float, where: str | None = None) -> float:

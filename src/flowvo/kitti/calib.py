@@ -8,6 +8,7 @@ down positive), and writes them for cameras that have them.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -107,19 +108,21 @@ def _camera_lines(extras: dict[str, tuple[int, str]], path: Path
             distortion = LensDistortion(model or default_model, tuple(coefficients))
         except FlowvoError as error:
             raise FlowvoError(str(error), path, line_number) from None
-    height_m = None
-    if "camera_height_m" in numbers:
-        line_number, _ = extras["camera_height_m"]
-        if len(numbers["camera_height_m"]) != 1:
-            raise FlowvoError("camera_height_m: expected one number (metres)", path, line_number)
-        height_m = check_camera_height(numbers["camera_height_m"][0], f"{path}:{line_number}")
-    pitch_deg = None
-    if "camera_pitch_deg" in numbers:
-        line_number, _ = extras["camera_pitch_deg"]
-        if len(numbers["camera_pitch_deg"]) != 1:
-            raise FlowvoError("camera_pitch_deg: expected one number (degrees)", path, line_number)
-        pitch_deg = check_camera_pitch(numbers["camera_pitch_deg"][0], f"{path}:{line_number}")
+    height_m, pitch_deg = (_single_number(numbers, extras, key, unit, check, path) for key, unit, check in
+                           (("camera_height_m", "metres", check_camera_height),
+                            ("camera_pitch_deg", "degrees", check_camera_pitch)))
     return distortion, height_m, pitch_deg
+
+
+def _single_number(numbers: dict[str, list[float]], extras: dict[str, tuple[int, str]], key: str, unit: str,
+                   check: Callable[[float, str], float], path: Path) -> float | None:
+    """The one number of the optional line ``key`` (in ``unit``), checked by ``check``; None without the line."""
+    if key not in numbers:
+        return None
+    line_number, _ = extras[key]
+    if len(numbers[key]) != 1:
+        raise FlowvoError(f"{key}: expected one number ({unit})", path, line_number)
+    return check(numbers[key][0], f"{path}:{line_number}")
 
 
 def format_calibration(calibration: Calibration) -> str:

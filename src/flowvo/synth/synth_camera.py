@@ -18,6 +18,7 @@ from flowvo.camera import (
     check_camera_height,
     check_camera_pitch,
     distort_points,
+    pitch_rotation,
     undistort_points,
 )
 from flowvo.errors import FlowvoError
@@ -63,12 +64,10 @@ class SynthCamera:
         return width_px / 2.0 / math.tan(math.radians(self.fov_deg) / 2.0)
 
     def mounting(self) -> np.ndarray:
-        """``T_level_cam`` (4, 4): the camera pitched down by ``pitch_deg`` about its x axis (its optical axis
-        ``(0, sin, cos)`` in the frame of a level camera at the same place; the rotation is
-        :attr:`flowvo.camera.Camera.road_levelling`)."""
-        pitch = math.radians(self.pitch_deg)
+        """``T_level_cam`` (4, 4): the camera pitched down by ``pitch_deg`` about its x axis, in the frame of a
+        level camera at the same place (:func:`flowvo.camera.pitch_rotation`)."""
         T = np.eye(4)
-        T[1:3, 1:3] = [[math.cos(pitch), math.sin(pitch)], [-math.sin(pitch), math.cos(pitch)]]
+        T[:3, :3] = pitch_rotation(self.pitch_deg)
         return T
 
     def record(self) -> dict:
