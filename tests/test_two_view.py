@@ -43,6 +43,14 @@ def test_essential_motion_recovers_rotation_and_direction_exactly():
     np.testing.assert_allclose(fit.t_dir, t / np.linalg.norm(t), atol=1e-6)
 
 
+def test_essential_motion_takes_the_intrinsics_as_a_view_of_a_projection_matrix():
+    scene, _, R, t = scene_and_motion()
+    projection = np.c_[K, np.zeros(3)]  # the left 3x3 of a KITTI P0 is a strided view
+    fit = essential_motion(project(scene), project(scene @ R.T + t), projection[:, :3], threshold_px=0.25)
+    assert fit is not None
+    np.testing.assert_allclose(fit.R, R, atol=1e-6)
+
+
 def test_triangulation_returns_points_in_step_units():
     scene, _, R, t = scene_and_motion(step_m=2.0)
     motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(scene), bool))

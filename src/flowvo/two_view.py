@@ -100,6 +100,8 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
     keeps fewer than ``min_inliers`` points."""
     if len(points_prev) < min_inliers:
         return None
+    K = np.ascontiguousarray(K, dtype=np.float64)  # OpenCV's USAC reads a strided view (the left 3x3 of a
+    # projection matrix) as its buffer: it silently finds no inliers
     cv2.setRNGSeed(0)  # the sampling, hence the result, must not depend on what ran before in this thread
     E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.USAC_FAST, 0.999, threshold_px)
     if E is None or E.shape != (3, 3) or mask is None:

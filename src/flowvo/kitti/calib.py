@@ -34,7 +34,7 @@ class Calibration:
     @property
     def K0(self) -> np.ndarray:
         """Intrinsics (3, 3) of the left grey camera (image_0), pixels."""
-        return self.matrices["P0"][:, :3]
+        return self.matrices["P0"][:, :3].copy()  # a view would reach OpenCV strided
 
     @property
     def baseline_m(self) -> float:

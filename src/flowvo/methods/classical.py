@@ -38,6 +38,7 @@ def relative_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndar
     """Unit-translation motion ``T_prev_next`` (4, 4) and the inlier mask, or None when degenerate."""
     if len(points_prev) < MIN_TRACKS:
         return None
+    K = np.ascontiguousarray(K, dtype=np.float64)  # OpenCV reads a strided view as its buffer
     E, mask = cv2.findEssentialMat(points_prev, points_next, K, cv2.RANSAC, 0.999, 1.0)
     if E is None or E.shape != (3, 3):
         return None
