@@ -75,9 +75,9 @@ def test_a_broken_video_fails_alone_with_a_one_line_error_and_exit_code_1(first,
 
 def test_each_drive_folder_holds_exactly_what_flowvo_run_writes(first):
     _, out = first
-    assert sorted(p.name for p in (out / "drives" / "kitti__00").iterdir()) == sorted(run_outputs("00"))
+    assert sorted(p.name for p in (out / "drives" / "kitti__00").iterdir()) == sorted(run_outputs("00", steps=True))
     assert sorted(p.name for p in (out / "drives" / "videos__good.avi").iterdir()) == \
-        sorted(set(run_outputs("good")) - {"eval_good"})  # a video has no ground truth
+        sorted(set(run_outputs("good", steps=True)) - {"eval_good"})  # a video has no ground truth
     assert not (out / "drives" / "videos__broken.mp4").exists()  # refused before anything was written
     video_poses = np.loadtxt(out / "drives" / "videos__good.avi" / "good.txt")  # the same frames, losslessly
     np.testing.assert_allclose(video_poses, np.loadtxt(out / "drives" / "kitti__00" / "00.txt"), atol=1e-9)

@@ -13,6 +13,7 @@ from flowvo.scale_window import (
     ScaleWindow,
     StepScale,
     carried_prior,
+    log_length_sigmas,
     robust_log_lengths,
     scipy_log_lengths,
 )
@@ -299,3 +300,46 @@ def test_without_marginalisation_the_window_forgets_the_road():
     steps = [StepScale(s.R, s.t_dir, 0.0, s.dt_s, s.road_m, ratio=s.ratio) for s in steps]
     found = [np.linalg.norm(m[:3, 3]) for _, m in run_window(steps, ScaleWindow(marginalise=False))]
     assert found[0] == pytest.approx(1.0) and found[-1] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_a_chain_of_consistent_measurements_has_the_sigmas_of_its_links():
+    """One road (sigma 0.05) on the first step and exact ratios (0.01 each) down the chain: step k's log
+    length has the variance of the road plus k links, as for a random walk from the road."""
+    truth = np.log(np.array([1.0, 1.1, 0.9, 1.2]))
+    links = [(k, truth[k] - truth[k - 1], 0.01) for k in range(1, 4)]
+    sigmas = log_length_sigmas(links, [(0, truth[0], 0.05)], 4, robust_log_lengths(links, [(0, truth[0], 0.05)], 4))
+    np.testing.assert_allclose(sigmas, np.sqrt(0.05**2 + np.arange(4) * 0.01**2), rtol=1e-6)
+
+
+def test_an_outlier_adds_almost_no_certainty_and_a_conflict_removes_it():
+    """Roads on a lone step (sigma 0.05 each): four agreeing give 0.05 / 2; three agreeing and one 20 sigmas
+    off, whose Cauchy weight falls to 1 %, give the three's sigma; two that disagree by 20 sigmas leave
+    the step less certain than either alone."""
+    agreeing = [(0, 0.0, 0.05)] * 4
+    outlier = [(0, 0.0, 0.05)] * 3 + [(0, 1.0, 0.05)]
+    conflict = [(0, 0.0, 0.05), (0, 1.0, 0.05)]
+    sigma = {name: log_length_sigmas([], absolutes, 1, robust_log_lengths([], absolutes, 1))[0]
+             for name, absolutes in (("agreeing", agreeing), ("outlier", outlier), ("conflict", conflict))}
+    assert sigma["agreeing"] == pytest.approx(0.025, rel=1e-6)
+    assert sigma["outlier"] == pytest.approx(0.05 / np.sqrt(3.01), rel=1e-3)
+    assert sigma["conflict"] > 0.15
+
+
+def test_every_final_step_is_recorded_with_what_measured_it():
+    """Roads every fourth step, ratios on all but the first, a standstill, then steps that only the per-pair
+    estimate measures: one record per step in order; the held speed's sigma says it is a guess."""
+    steps, _ = drive(np.full(8, 1.0), road_every=4)
+    unmeasured = [StepScale(s.R, s.t_dir, 0.7, 0.1) for s in steps[:2]]
+    window = ScaleWindow()
+    for k, s in enumerate(steps + [None] + unmeasured):
+        window.push(0.1 * (k + 1), s)
+    window.flush()
+    records = window.records
+    assert [r.time_s for r in records] == pytest.approx([0.1 * (k + 1) for k in range(11)])
+    assert [r.measured_by for r in records] == ["road", "ratio", "ratio", "ratio", "road+ratio", "ratio", "ratio",
+                                                "ratio", "standstill", "none", "none"]
+    assert [r.length_m for r in records[:8]] == pytest.approx(np.ones(8), abs=1e-6)
+    assert records[8].length_m == 0.0 and records[8].log_sigma is None
+    assert all(0.0 < r.log_sigma < ROAD_SIGMA for r in records[:8])
+    assert [r.length_m for r in records[9:]] == pytest.approx([0.7, 0.7], abs=1e-6)
+    assert all(r.log_sigma > 1.0 for r in records[9:])

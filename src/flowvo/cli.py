@@ -369,6 +369,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
               f"{pitch + hint:.1f} (docs/camera.md)")
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
+    if summary.get("steps"):
+        kinds = summary["scale_window"]["steps_measured_by"]
+        print(f"steps: {args.out}/{summary['steps']}  (measured by " + ", ".join(
+            f"{kind} {count}" for kind, count in sorted(kinds.items(), key=lambda item: -item[1])) + ")")
     if "mcap" in summary:
         print(f"mcap: {args.out}/{summary['mcap']}")
     if "metrics" in summary:

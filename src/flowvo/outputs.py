@@ -55,9 +55,16 @@ def validate_name(name: str, what: str = "sequence") -> str:
     return text
 
 
-def run_outputs(sequence: str) -> list[str]:
-    """What ``flowvo run`` writes into its output folder for ``sequence`` (an already validated name)."""
-    return [f"{sequence}.txt", f"{sequence}.tum", "timing.json", "run.json", f"eval_{sequence}"]
+def run_outputs(sequence: str, steps: bool = False) -> list[str]:
+    """What ``flowvo run`` writes into its output folder for ``sequence`` (an already validated name);
+    ``steps``: a windowed method's step records too."""
+    return [f"{sequence}.txt", f"{sequence}.tum", "timing.json", "run.json", f"eval_{sequence}"] + \
+        ([steps_csv_name(sequence)] if steps else [])
+
+
+def steps_csv_name(sequence: str) -> str:
+    """The file of a windowed run's step records (:mod:`flowvo.steps_csv`)."""
+    return f"{sequence}_steps.csv"
 
 
 def is_inside(path: str | Path, folder: str | Path) -> bool:

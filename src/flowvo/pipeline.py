@@ -2,8 +2,9 @@
 timing and, when ground truth exists, evaluation.
 
 Outputs in OUT: ``NAME.txt`` (KITTI poses), ``NAME.tum`` (TUM, the source's timestamps), ``timing.json``
-(seconds per frame by stage, wall-clock frames per second), ``run.json`` (what ran, on what data) and,
-with ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
+(seconds per frame by stage, wall-clock frames per second), ``run.json`` (what ran, on what data), for the
+windowed methods ``NAME_steps.csv`` (each step's length, its uncertainty and what measured it) and, with
+ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
 from flowvo.methods.base import OdometryStep
-from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs
+from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs, steps_csv_name
+from flowvo.steps_csv import write_steps_csv
 from flowvo.trajectory import Trajectory
 
 if TYPE_CHECKING:
@@ -49,7 +51,8 @@ def run(options: RunOptions) -> dict:
 
         require_ros_extra("writing MCAP odometry")
         check_names(options.frame_id, options.child_frame_id)
-    produces = run_outputs(source.name) + ([f"{source.name}.mcap"] if write_mcap else [])
+    produces = (run_outputs(source.name, steps=step.step_records() is not None)
+                + ([f"{source.name}.mcap"] if write_mcap else []))
     with claim_output_dir(options.out, produces, options.force, dataset=options.data) as out:
         result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name,
                                  overlap=options.overlap_stages)
@@ -74,6 +77,9 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
     write_tum_trajectory(out / f"{source.name}.tum", trajectory, result.timestamps_s)
     timing = timing_report(result)
     write_json_atomic(out / "timing.json", timing)
+    records = step.step_records()
+    if records is not None:
+        write_steps_csv(out / steps_csv_name(source.name), records, result.frames)
     summary = {
         "label": step.label,
         "method": options.method,
@@ -86,6 +92,7 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         "camera": drive.camera.record(),
         "frames_per_second": timing["frames_per_second"],
         "latency_frames": step.latency_frames,  # each pose is final this many frames after its own arrives
+        "steps": steps_csv_name(source.name) if records is not None else None,
         "lengths_m": list(options.lengths_m),
     }
     if drive.camera_estimate is not None:

@@ -19,6 +19,10 @@ stretch without one still sets the scale, less surely with every link; the per-p
 keeps only a weak hold. A standstill ends the window and its prior (the next motion starts a new one); a time gap
 longer than ``SPEED_HORIZON_S`` without a ratio breaks the link between the steps around it.
 
+Every final step is also recorded (:class:`StepRecord`): its length, the standard deviation of its log from
+the window's solve, and what measured it, for a user who weighs the poses (a fusion filter) or wants to
+know which stretches rest on the road.
+
 Pure computation over NumPy arrays. Motions ``T_prev_cur`` (4x4, metres) as the stream chains them.
 """
 
@@ -26,6 +30,7 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.linalg import cho_factor, cho_solve
@@ -76,6 +81,66 @@ class StepScale:
     road_steps: int = 1
 
 
+class _WindowProblem:
+    """The window's measurements as arrays (see :func:`robust_log_lengths` for their meaning): the weighted
+    normal equations at any robust weights, and each measurement's residual in sigmas."""
+
+    def __init__(self, links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]], count: int,
+                 sums: list[tuple[int, int, float, float]]) -> None:
+        self.count = count
+        self.link_k, self.link_value, self.link_sigma = _columns(links)
+        self.absolute_k, self.absolute_value, self.absolute_sigma = _columns(absolutes)
+        steps = np.arange(count)
+        self.spans = np.array([(steps >= first) & (steps <= last) for first, last, _, _ in sums]).reshape(len(sums),
+                                                                                                         count)
+        self.sum_value, self.sum_sigma = (np.array([row[i] for row in sums], np.float64) for i in (2, 3))
+
+    def summed(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each sum's log at ``x``, and its derivatives (each step's share of the sum)."""
+        lengths = np.where(self.spans, np.exp(x), 0.0)
+        total = lengths.sum(axis=1)
+        return np.log(total), lengths / total[:, None]
+
+    def normal_equations(self, weights: tuple[np.ndarray, np.ndarray, np.ndarray], at: np.ndarray
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The normal matrix (count, count) and right-hand side of the least squares with the robust
+        ``weights`` (links, absolutes, sums), the sums linearised at ``at`` (Gauss-Newton)."""
+        count, link_k, absolute_k = self.count, self.link_k, self.absolute_k
+        w_link, w_absolute = weights[0] / self.link_sigma**2, weights[1] / self.absolute_sigma**2
+        normal = np.diag(UNDETERMINED_WEIGHT + np.bincount(link_k, w_link, count)
+                         + np.bincount(link_k - 1, w_link, count) + np.bincount(absolute_k, w_absolute, count))
+        np.add.at(normal, (link_k, link_k - 1), -w_link)
+        np.add.at(normal, (link_k - 1, link_k), -w_link)
+        rhs = (np.bincount(link_k, w_link * self.link_value, count)
+               - np.bincount(link_k - 1, w_link * self.link_value, count)
+               + np.bincount(absolute_k, w_absolute * self.absolute_value, count))
+        if len(self.sum_value):
+            log_sum, shares = self.summed(at)
+            w_sum = weights[2] / self.sum_sigma**2
+            normal += shares.T @ (w_sum[:, None] * shares)
+            rhs += shares.T @ (w_sum * (self.sum_value - log_sum + shares @ at))
+        return normal, rhs
+
+    def normalised(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each measurement's residual at ``x`` in its own sigmas (links, absolutes, sums)."""
+        return (np.abs(x[self.link_k] - x[self.link_k - 1] - self.link_value) / self.link_sigma,
+                np.abs(x[self.absolute_k] - self.absolute_value) / self.absolute_sigma,
+                np.abs(self.summed(x)[0] - self.sum_value) / self.sum_sigma if len(self.sum_value) else np.zeros(0))
+
+
+class StepRecord(NamedTuple):
+    """What became of one step: ``time_s`` (its end frame), its final ``length_m``, the standard deviation of
+    the natural log of that length (``log_sigma``: 0.01 is 1 %; above 1 where only the per-pair estimate's
+    held speed measured it, None at a standstill or where nothing did), and ``measured_by``: what measured
+    the step itself, "+"-joined from "road", "ratio" and "network" ("none": only its neighbours or the held
+    speed; "standstill")."""
+
+    time_s: float
+    length_m: float
+    log_sigma: float | None
+    measured_by: str
+
+
 def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
                        count: int, threshold: float = HUBER_THRESHOLD, iterations: int = HUBER_ITERATIONS,
                        sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
@@ -89,47 +154,32 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
     road measured from a key frame several steps back). A connected run of steps without an absolute
     measurement or sum is left near 0 (undetermined).
     """
-    link_k, link_value, link_sigma = _columns(links)
-    absolute_k, absolute_value, absolute_sigma = _columns(absolutes)
-    steps = np.arange(count)
-    spans = np.array([(steps >= first) & (steps <= last) for first, last, _, _ in sums]).reshape(len(sums), count)
-    sum_value, sum_sigma = (np.array([row[i] for row in sums], np.float64) for i in (2, 3))
+    problem = _WindowProblem(links, absolutes, count, sums)
 
-    def summed(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Each sum's log at ``x``, and its derivatives (each step's share of the sum)."""
-        lengths = np.where(spans, np.exp(x), 0.0)
-        total = lengths.sum(axis=1)
-        return np.log(total), lengths / total[:, None]
-
-    def solve(link_weight: np.ndarray, absolute_weight: np.ndarray, sum_weight: np.ndarray, at: np.ndarray
-              ) -> np.ndarray:
-        w_link, w_absolute = link_weight / link_sigma**2, absolute_weight / absolute_sigma**2
-        normal = np.diag(UNDETERMINED_WEIGHT + np.bincount(link_k, w_link, count)
-                         + np.bincount(link_k - 1, w_link, count) + np.bincount(absolute_k, w_absolute, count))
-        np.add.at(normal, (link_k, link_k - 1), -w_link)
-        np.add.at(normal, (link_k - 1, link_k), -w_link)
-        rhs = (np.bincount(link_k, w_link * link_value, count) - np.bincount(link_k - 1, w_link * link_value, count)
-               + np.bincount(absolute_k, w_absolute * absolute_value, count))
-        if len(sum_value):
-            log_sum, shares = summed(at)
-            w_sum = sum_weight / sum_sigma**2
-            normal += shares.T @ (w_sum[:, None] * shares)
-            rhs += shares.T @ (w_sum * (sum_value - log_sum + shares @ at))
+    def solve(weights: tuple[np.ndarray, np.ndarray, np.ndarray], at: np.ndarray) -> np.ndarray:
+        normal, rhs = problem.normal_equations(weights, at)
         return cho_solve(cho_factor(normal, check_finite=False), rhs, check_finite=False)
 
-    def normalised(x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return (np.abs(x[link_k] - x[link_k - 1] - link_value) / link_sigma,
-                np.abs(x[absolute_k] - absolute_value) / absolute_sigma,
-                np.abs(summed(x)[0] - sum_value) / sum_sigma if len(sum_value) else np.zeros(0))
-
-    x = solve(np.ones(len(link_k)), np.ones(len(absolute_k)), np.ones(len(sum_value)), np.zeros(count))
+    x = solve((np.ones(len(problem.link_k)), np.ones(len(problem.absolute_k)), np.ones(len(problem.sum_value))),
+              np.zeros(count))
     for _ in range(iterations):
-        x = solve(*(np.minimum(1.0, threshold / np.maximum(r, 1e-12)) for r in normalised(x)), x)
+        x = solve(tuple(np.minimum(1.0, threshold / np.maximum(r, 1e-12)) for r in problem.normalised(x)), x)
     for _ in range(MAX_CAUCHY_ITERATIONS):
-        previous, x = x, solve(*(cauchy_weight(r, threshold) for r in normalised(x)), x)
+        previous, x = x, solve(tuple(cauchy_weight(r, threshold) for r in problem.normalised(x)), x)
         if np.abs(x - previous).max() < CONVERGED_LOG:
             break
     return x
+
+
+def log_length_sigmas(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
+                      count: int, x: np.ndarray, threshold: float = HUBER_THRESHOLD,
+                      sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
+    """The standard deviation (count,) of each solved log length ``x`` (a robust solve's result): the
+    diagonal of the inverse normal matrix, each measurement under the Cauchy weight it keeps at ``x``
+    (Laplace's approximation; a step no measurement reaches gets a huge sigma)."""
+    problem = _WindowProblem(links, absolutes, count, sums)
+    normal, _ = problem.normal_equations(tuple(cauchy_weight(r, threshold) for r in problem.normalised(x)), x)
+    return np.sqrt(np.diag(cho_solve(cho_factor(normal, check_finite=False), np.eye(count), check_finite=False)))
 
 
 def scipy_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
@@ -212,12 +262,15 @@ class ScaleWindow:
         self._pending = 0
         self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
         # steps that left it
+        self.records: list[StepRecord] = []  # every final step so far, in order
 
     def push(self, time_s: float, step: StepScale | None) -> list[tuple[float, np.ndarray]]:
         """Add the step ending at ``time_s`` (None: a standstill, identity motion); the motions
         (time_s, ``T_prev_cur``) now final, in order."""
         if step is None:
-            return self.flush() + [(time_s, np.eye(4))]
+            emitted = self.flush()
+            self.records.append(StepRecord(time_s, 0.0, None, "standstill"))
+            return emitted + [(time_s, np.eye(4))]
         self._steps.append((time_s, step))
         self._pending += 1
         if self._pending <= self.latency_frames:
@@ -237,12 +290,15 @@ class ScaleWindow:
         links, absolutes, sums = self._measurements()
         log_lengths = self.solve(links, absolutes, len(self._steps), sums=sums)
         measured = [k for k, _, _ in absolutes] + [last for _, last, _, _ in sums]
-        lengths = np.where(self._anchored(links, measured), np.exp(log_lengths),
-                           [step.pair_m for _, step in self._steps])
+        anchored = self._anchored(links, measured)
+        lengths = np.where(anchored, np.exp(log_lengths), [step.pair_m for _, step in self._steps])
+        sigmas = log_length_sigmas(links, absolutes, len(self._steps), log_lengths, sums=sums)
         first = len(self._steps) - self._pending
         emitted = [(self._steps[k][0], invert_se3(se3_next_prev(self._steps[k][1].R,
                                                                 self._steps[k][1].t_dir * lengths[k])))
                    for k in range(first, first + count)]
+        self.records += [StepRecord(self._steps[k][0], float(lengths[k]), float(sigmas[k]) if anchored[k] else None,
+                                    _measured_by(self._steps[k][1], self.ratios)) for k in range(first, first + count)]
         self._pending -= count
         intervals = [step.dt_s for _, step in self._steps]
         keep = max(MIN_WINDOW_STEPS, int(round(self.window_s / float(np.median(intervals)))))
@@ -296,6 +352,13 @@ class ScaleWindow:
         link = next((robust(value, sigma, log_lengths[k + 1] - log_lengths[k] - value)
                      for j, value, sigma in links if j == k + 1), None)
         return carried_prior([robust(value, sigma, log_lengths[k] - value) for value, sigma in measured], link)
+
+
+def _measured_by(step: StepScale, ratios: bool) -> str:
+    """What measured ``step`` itself (see :class:`StepRecord`; its ratio only where the window uses ratios)."""
+    kinds = [kind for kind, value in (("road", step.road_m), ("ratio", step.ratio if ratios else None),
+                                      ("network", step.network_m)) if _usable(value)]
+    return "+".join(kinds) or "none"
 
 
 def _usable(value: float | None) -> bool:

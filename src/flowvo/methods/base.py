@@ -11,7 +11,8 @@ thread, returns what the window stage needs of that step; ``refine(time_s, motio
 window stage (a stream runs it in the caller's thread, beside the reader and motion threads, in frame
 order), returns the motions that are
 final, ``latency_frames`` steps late (at once for the methods without a window, :class:`NoWindow`);
-``flush()`` returns the rest at the end of the drive.
+``flush()`` returns the rest at the end of the drive; ``step_records()``, what became of each final step
+(the windowed methods: :class:`flowvo.scale_window.StepRecord`; None for the others).
 ``summary()`` reports what the method wants kept in run.json.
 """
 
@@ -49,6 +50,8 @@ class OdometryStep(Protocol):
 
     def flush(self) -> list[tuple[float, np.ndarray]]: ...
 
+    def step_records(self) -> list | None: ...
+
     def summary(self) -> dict: ...
 
 
@@ -68,6 +71,10 @@ class NoWindow:
     def flush(self) -> list[tuple[float, np.ndarray]]:
         """Nothing is held back."""
         return []
+
+    def step_records(self) -> None:
+        """No window, no record of how each step was measured."""
+        return None
 
 
 class WorkingFrames:

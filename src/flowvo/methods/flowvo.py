@@ -18,6 +18,7 @@ speed prior's length, no latency), kept for comparison.
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 
 import cv2
@@ -43,7 +44,7 @@ from flowvo.road_scale import (
     road_room,
 )
 from flowvo.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
-from flowvo.scale_window import ScaleWindow, StepScale
+from flowvo.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.speed_prior import SpeedPrior
 from flowvo.two_view import (
     EssentialMotion,
@@ -344,14 +345,23 @@ class FlowGeometryStep(WorkingFrames):
         """The motions still in the window at the end of the drive."""
         return [] if self.window is None else self.window.flush()
 
+    def step_records(self) -> list[StepRecord] | None:
+        """What became of each final step so far (the window's records; None per pair)."""
+        return None if self.window is None else self.window.records
+
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
-        planes fared (:class:`RoadPlaneTally`), and the window's latency (frames: how late each motion is
-        final)."""
+        planes fared (:class:`RoadPlaneTally`), the window's latency (frames: how late each motion is final),
+        how many steps each kind of measurement reached and the median standard deviation of a step's log
+        length (:class:`StepRecord`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_tally.record()
         if self.window is not None:
-            kept["scale_window"] = {"latency_frames": self.window.latency_frames, "window_s": self.window.window_s}
+            records = self.window.records
+            sigmas = [record.log_sigma for record in records if record.log_sigma is not None]
+            kept["scale_window"] = {"latency_frames": self.window.latency_frames, "window_s": self.window.window_s,
+                                    "steps_measured_by": dict(Counter(record.measured_by for record in records)),
+                                    "median_length_log_sigma": float(np.median(sigmas)) if sigmas else None}
         return kept
 
 
