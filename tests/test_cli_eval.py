@@ -1,6 +1,6 @@
 import json
 
-from flowvo.cli import build_parser, main
+from flowvo.cli import _unscaled_warning, build_parser, main
 
 
 def test_every_subcommand_has_help(capsys):
@@ -39,3 +39,14 @@ def test_bad_pose_file_gives_one_line_error_and_exit_2(tmp_path, capsys):
     assert code == 2
     assert err.count("\n") == 0 and "bad.txt:1: expected 12 numbers" in err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_run_whose_steps_mostly_lack_a_scale_warns_and_names_the_step_records():
+    def summary(unscaled: int) -> dict:
+        kinds = {"road+ratio": 80, "none": 30, "standstill": 40}
+        return {"steps": "00_steps.csv", "scale_window": {"steps_measured_by": kinds, "unscaled_steps": unscaled}}
+
+    warning = _unscaled_warning(summary(30), "OUT")
+    assert warning.startswith("warning: 30 of 110 moving steps") and "OUT/00_steps.csv" in warning
+    assert _unscaled_warning(summary(11), "OUT") is None  # a tenth of the moving steps is tolerated
+    assert _unscaled_warning({"steps": None}, "OUT") is None  # a method without a window

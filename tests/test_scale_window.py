@@ -343,3 +343,4 @@ def test_every_final_step_is_recorded_with_what_measured_it():
     assert all(0.0 < r.log_sigma < ROAD_SIGMA for r in records[:8])
     assert [r.length_m for r in records[9:]] == pytest.approx([0.7, 0.7], abs=1e-6)
     assert all(r.log_sigma > 1.0 for r in records[9:])
+    assert [r.unscaled for r in records] == [False] * 9 + [True, True]  # a standstill needs no scale

@@ -48,6 +48,7 @@ FRAME_COUNT = _bounded(int, 2)  # a sequence needs two frames for one motion
 FLOW_SCALE = _bounded(float, 0.0, 2.0, low_open=True)
 IMAGE_SCALE = _bounded(float, 0.0, 4.0, low_open=True)
 POSITIVE_FLOAT = _bounded(float, 0.0, 1e6, low_open=True)
+UNSCALED_SHARE = 0.1  # more of a run's moving steps than this without a scale measurement: warn
 SUB_PATH_M = _bounded(float, 1.0, 1e5)  # shorter sub-paths measure one frame's noise, not drift (1e-30 m: 1e31 %)
 
 
@@ -350,6 +351,19 @@ def _estimate_line(camera: dict) -> str:
             f"--fx {camera['fx']:.1f} --fy {camera['fy']:.1f} --cx {camera['cx']:.1f} --cy {camera['cy']:.1f}")
 
 
+def _unscaled_warning(summary: dict, out: str) -> str | None:
+    """A warning when more than a tenth of the moving steps rest on no measurement of the scale (the held
+    speed, or nothing: ``flowvo-geometry`` without a road in sight), else None."""
+    window = summary.get("scale_window") or {}
+    kinds = window.get("steps_measured_by", {})
+    unscaled, moving = window.get("unscaled_steps", 0), sum(kinds.values()) - kinds.get("standstill", 0)
+    if not unscaled or unscaled <= UNSCALED_SHARE * moving:
+        return None
+    return (f"warning: {unscaled} of {moving} moving steps had no road, ratio to a measured step or network distance: "
+            f"their lengths are the held speed or zero, not measured ({out}/{summary['steps']}; flowvo, with its "
+            "network, measures where no road is seen)")
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     from flowvo.pipeline import run
 
@@ -373,6 +387,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         kinds = summary["scale_window"]["steps_measured_by"]
         print(f"steps: {args.out}/{summary['steps']}  (measured by " + ", ".join(
             f"{kind} {count}" for kind, count in sorted(kinds.items(), key=lambda item: -item[1])) + ")")
+        if warning := _unscaled_warning(summary, args.out):
+            print(warning)
     if "mcap" in summary:
         print(f"mcap: {args.out}/{summary['mcap']}")
     if "metrics" in summary:

@@ -57,6 +57,8 @@ HUBER_THRESHOLD = 2.0  # sigmas: beyond, Huber counts residuals linearly; Cauchy
 HUBER_ITERATIONS = 3  # Huber only brings Cauchy near its minimum
 MAX_CAUCHY_ITERATIONS = 50
 UNDETERMINED_WEIGHT = 1e-9  # 1/log^2: holds a step no measurement reaches at 0 (not used: it keeps its pair length)
+UNSCALED_LOG_SIGMA = 0.5  # log: a moving step known less surely than this has only the held speed behind it
+# (the network's distance alone: 0.4)
 CONVERGED_LOG = 1e-4  # Cauchy stops once no log length moves more (0.01 % of a step: far below any noise;
 # 1e-6 took 40 % more iterations for the same clip results to four digits)
 
@@ -139,6 +141,12 @@ class StepRecord(NamedTuple):
     length_m: float
     log_sigma: float | None
     measured_by: str
+
+    @property
+    def unscaled(self) -> bool:
+        """A moving step whose length rests on no measurement of the scale (road, ratio to a measured step,
+        network): only the held speed, or nothing."""
+        return self.measured_by != "standstill" and (self.log_sigma is None or self.log_sigma > UNSCALED_LOG_SIGMA)
 
 
 def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],

@@ -352,8 +352,8 @@ class FlowGeometryStep(WorkingFrames):
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
         planes fared (:class:`RoadPlaneTally`), the window's latency (frames: how late each motion is final),
-        how many steps each kind of measurement reached and the median standard deviation of a step's log
-        length (:class:`StepRecord`)."""
+        how many steps each kind of measurement reached, the median standard deviation of a step's log
+        length and how many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_tally.record()
         if self.window is not None:
@@ -361,7 +361,8 @@ class FlowGeometryStep(WorkingFrames):
             sigmas = [record.log_sigma for record in records if record.log_sigma is not None]
             kept["scale_window"] = {"latency_frames": self.window.latency_frames, "window_s": self.window.window_s,
                                     "steps_measured_by": dict(Counter(record.measured_by for record in records)),
-                                    "median_length_log_sigma": float(np.median(sigmas)) if sigmas else None}
+                                    "median_length_log_sigma": float(np.median(sigmas)) if sigmas else None,
+                                    "unscaled_steps": sum(record.unscaled for record in records)}
         return kept
 
 
