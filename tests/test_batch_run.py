@@ -16,6 +16,7 @@ import pytest
 from batch_fleet import FRAMES, make_fleet, write_video
 
 from flowvo.batch import run_batch
+from flowvo.batch.done import read_drive_outputs
 from flowvo.batch.lock import batch_lock
 from flowvo.cli import main
 from flowvo.errors import FlowvoError
@@ -81,6 +82,15 @@ def test_each_drive_folder_holds_exactly_what_flowvo_run_writes(first):
     assert not (out / "drives" / "videos__broken.mp4").exists()  # refused before anything was written
     video_poses = np.loadtxt(out / "drives" / "videos__good.avi" / "good.txt")  # the same frames, losslessly
     np.testing.assert_allclose(video_poses, np.loadtxt(out / "drives" / "kitti__00" / "00.txt"), atol=1e-9)
+
+
+def test_a_drive_whose_step_records_are_missing_is_not_complete(first, tmp_path):
+    out = copy_of(first[1], tmp_path)
+    folder = out / "drives" / "kitti__00"
+    assert read_drive_outputs(folder).unscaled_steps == rows(first[1])["kitti__00"]["unscaled_steps"] == 0
+    (folder / "00_steps.csv").unlink()
+    with pytest.raises(FlowvoError, match="00_steps.csv named by run.json is missing"):
+        read_drive_outputs(folder)
 
 
 def test_the_page_lists_failed_drives_first_with_a_path_plot_per_completed_drive(first):

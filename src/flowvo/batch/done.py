@@ -1,7 +1,8 @@
 """Whether a drive's output folder holds a complete ``flowvo run`` result, checked rather than assumed.
 
 Complete: run.json and timing.json parse, the KITTI pose file run.json names parses with run.json's
-frame count, the TUM file has one pose per frame, and the MCAP and evaluation run.json names exist. The
+frame count, the TUM file has one pose per frame, and the MCAP, step records and evaluation run.json names
+exist. The
 numbers of the fleet summary are read from these same files.
 """
 
@@ -23,8 +24,9 @@ from flowvo.outputs import validate_name
 class DriveOutputs:
     """What a complete drive result says: ``frames``; ``duration_s``, the seconds between its first and last
     frame; ``path_length_m``, the summed steps between camera centres; the KITTI metric where ground truth
-    exists (else None); the odometry stream's ``frames_per_second``; the ``method``; and the poses'
-    camera centres ``positions_m`` (N, 3) in the first camera's frame."""
+    exists (else None); the odometry stream's ``frames_per_second``; the ``method``; ``unscaled_steps``, the
+    moving steps no measurement of the scale reached (windowed methods, else None); and the poses' camera
+    centres ``positions_m`` (N, 3) in the first camera's frame."""
 
     frames: int
     duration_s: float
@@ -33,6 +35,7 @@ class DriveOutputs:
     r_err_deg_per_m: float | None
     frames_per_second: float | None
     method: str
+    unscaled_steps: int | None
     positions_m: np.ndarray
 
 
@@ -50,8 +53,9 @@ def read_drive_outputs(folder: str | Path) -> DriveOutputs:
     if len(trajectory) != frames:
         raise FlowvoError(f"has {len(trajectory)} poses; run.json says {frames} frames", poses_path)
     times_s = _tum_times(poses_path.with_suffix(".tum"), frames)
-    if "mcap" in summary and not (folder / validate_name(summary["mcap"], "run.json 'mcap' file")).is_file():
-        raise FlowvoError(f"{summary['mcap']} named by run.json is missing", folder)
+    for key in ("mcap", "steps"):
+        if summary.get(key) and not (folder / validate_name(summary[key], f"run.json '{key}' file")).is_file():
+            raise FlowvoError(f"{summary[key]} named by run.json is missing", folder)
     metrics = summary.get("metrics") or {}
     if metrics and not (folder / f"eval_{poses_path.stem}" / "metrics.json").is_file():
         raise FlowvoError(f"eval_{poses_path.stem}/metrics.json is missing", folder)
@@ -64,6 +68,7 @@ def read_drive_outputs(folder: str | Path) -> DriveOutputs:
         r_err_deg_per_m=_number(metrics.get("r_err_deg_per_m")),
         frames_per_second=_number(summary.get("frames_per_second")),
         method=str(summary.get("method")),
+        unscaled_steps=_count((summary.get("scale_window") or {}).get("unscaled_steps")),
         positions_m=positions_m,
     )
 
@@ -94,3 +99,7 @@ def _tum_times(path: Path, frames: int) -> np.ndarray:
 def _number(value: object) -> float | None:
     return float(value) if isinstance(value, int | float) and not isinstance(value, bool) \
         and math.isfinite(value) else None
+
+
+def _count(value: object) -> int | None:
+    return value if isinstance(value, int) and not isinstance(value, bool) and value >= 0 else None

@@ -17,7 +17,8 @@ from flowvo.kitti.poses import read_kitti_poses
 _ORDER = {"failed": 0, "pending": 1, "ok": 2}
 _COLUMNS = (("frames", "frames", "{:d}"), ("duration_s", "seconds", "{:.1f}"), ("path_length_m", "path [m]", "{:.1f}"),
             ("t_err_percent", "t_err [%]", "{:.2f}"), ("r_err_deg_per_m", "r_err [deg/m]", "{:.4f}"),
-            ("frames_per_second", "frames/s", "{:.0f}"), ("wall_s", "wall [s]", "{:.1f}"),
+            ("frames_per_second", "frames/s", "{:.0f}"), ("unscaled_steps", "unscaled steps", "{:d}"),
+            ("wall_s", "wall [s]", "{:.1f}"),
             ("peak_memory_mib", "peak [MiB]", "{:.0f}"))
 _STYLE = ("body{font-family:sans-serif;margin:1.5em}table{border-collapse:collapse}"
           "td,th{border:1px solid #ccc;padding:3px 6px;font-size:13px;vertical-align:middle}"

@@ -19,7 +19,8 @@ class DriveSummary:
     ``status``: "ok", "failed" (``error``: one line saying why) or "pending" (not run). ``frames``,
     ``duration_s`` (seconds between first and last frame), ``path_length_m``, the KITTI metric
     (``t_err_percent``, ``r_err_deg_per_m``, only with ground truth and sub-paths as long as the drive's),
-    ``frames_per_second`` (the drive's odometry stream): from its outputs, when ok. ``wall_s``: seconds
+    ``frames_per_second`` (the drive's odometry stream), ``unscaled_steps`` (moving steps no measurement of the
+    scale reached; windowed methods): from its outputs, when ok. ``wall_s``: seconds
     its worker spent on it, start-up included; ``peak_memory_mib``: the worker's peak resident memory (MiB)
     during it. ``reused``: completed by an earlier run of the batch, checked and kept. ``output``: its
     folder, relative to the batch output. ``settings``: the run options that shaped it.
@@ -38,6 +39,7 @@ class DriveSummary:
     t_err_percent: float | None = None
     r_err_deg_per_m: float | None = None
     frames_per_second: float | None = None
+    unscaled_steps: int | None = None
     wall_s: float | None = None
     peak_memory_mib: float | None = None
     reused: bool = False
@@ -65,7 +67,8 @@ def summarize(drive: Drive, settings: dict[str, Any], status: str, error: str | 
                    "path_length_m": _round(outputs.path_length_m, 3),
                    "t_err_percent": _round(outputs.t_err_percent, 4),
                    "r_err_deg_per_m": _round(outputs.r_err_deg_per_m, 6),
-                   "frames_per_second": _round(outputs.frames_per_second, 1)}
+                   "frames_per_second": _round(outputs.frames_per_second, 1),
+                   "unscaled_steps": outputs.unscaled_steps}
     return DriveSummary(drive=drive.name, kind=drive.kind, source=drive.path, sequence=drive.sequence, status=status,
                         error=error, wall_s=_round(wall_s, 3), peak_memory_mib=_round(peak_memory_mib, 1),
                         reused=reused, output=f"drives/{drive.name}", settings=settings,
