@@ -33,7 +33,6 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 
 from flowvo.geometry import invert_se3
 from flowvo.speed_prior import SPEED_HORIZON_S
@@ -96,6 +95,10 @@ class _WindowProblem:
         self.spans = np.array([(steps >= first) & (steps <= last) for first, last, _, _ in sums]).reshape(len(sums),
                                                                                                          count)
         self.sum_value, self.sum_sigma = (np.array([row[i] for row in sums], np.float64) for i in (2, 3))
+        # where each link's and absolute's weight lands in the flattened normal matrix (one bincount builds it)
+        link_k, absolute_k = self.link_k, self.absolute_k
+        self._cells = np.concatenate([link_k * (count + 1), (link_k - 1) * (count + 1), link_k * count + link_k - 1,
+                                      (link_k - 1) * count + link_k, absolute_k * (count + 1)])
 
     def summed(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Each sum's log at ``x``, and its derivatives (each step's share of the sum)."""
@@ -109,10 +112,9 @@ class _WindowProblem:
         ``weights`` (links, absolutes, sums), the sums linearised at ``at`` (Gauss-Newton)."""
         count, link_k, absolute_k = self.count, self.link_k, self.absolute_k
         w_link, w_absolute = weights[0] / self.link_sigma**2, weights[1] / self.absolute_sigma**2
-        normal = np.diag(UNDETERMINED_WEIGHT + np.bincount(link_k, w_link, count)
-                         + np.bincount(link_k - 1, w_link, count) + np.bincount(absolute_k, w_absolute, count))
-        np.add.at(normal, (link_k, link_k - 1), -w_link)
-        np.add.at(normal, (link_k - 1, link_k), -w_link)
+        normal = np.bincount(self._cells, np.concatenate([w_link, w_link, -w_link, -w_link, w_absolute]),
+                             count * count).reshape(count, count)
+        normal.flat[:: count + 1] += UNDETERMINED_WEIGHT
         rhs = (np.bincount(link_k, w_link * self.link_value, count)
                - np.bincount(link_k - 1, w_link * self.link_value, count)
                + np.bincount(absolute_k, w_absolute * self.absolute_value, count))
@@ -154,7 +156,7 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
                        sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
     """The log lengths ``x`` (count,) of the measurements under a robust loss, by iteratively reweighted
     least squares: Huber first, convex, from the plain least-squares start; then Cauchy from there, which
-    lets gross outliers go. Each iteration solves the weighted normal equations exactly (Cholesky); a sum,
+    lets gross outliers go. Each iteration solves the weighted normal equations exactly (LAPACK); a sum,
     not linear in ``x``, is linearised where the last iteration ended (Gauss-Newton), from equal lengths.
 
     ``links``: (k, log ratio, sigma) for ``x_k - x_(k-1)``; ``absolutes``: (k, log length, sigma) for ``x_k``;
@@ -165,8 +167,7 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
     problem = _WindowProblem(links, absolutes, count, sums)
 
     def solve(weights: tuple[np.ndarray, np.ndarray, np.ndarray], at: np.ndarray) -> np.ndarray:
-        normal, rhs = problem.normal_equations(weights, at)
-        return cho_solve(cho_factor(normal, check_finite=False), rhs, check_finite=False)
+        return np.linalg.solve(*problem.normal_equations(weights, at))
 
     x = solve((np.ones(len(problem.link_k)), np.ones(len(problem.absolute_k)), np.ones(len(problem.sum_value))),
               np.zeros(count))
@@ -187,7 +188,7 @@ def log_length_sigmas(links: list[tuple[int, float, float]], absolutes: list[tup
     (Laplace's approximation; a step no measurement reaches gets a huge sigma)."""
     problem = _WindowProblem(links, absolutes, count, sums)
     normal, _ = problem.normal_equations(tuple(cauchy_weight(r, threshold) for r in problem.normalised(x)), x)
-    return np.sqrt(np.diag(cho_solve(cho_factor(normal, check_finite=False), np.eye(count), check_finite=False)))
+    return np.sqrt(np.diag(np.linalg.inv(normal)))
 
 
 def scipy_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],

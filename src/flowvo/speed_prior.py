@@ -21,16 +21,31 @@ MAX_EXTRAPOLATION_S = 0.5  # the line is followed this far past its last measure
 
 
 def robust_line_value(times_s: np.ndarray, values: np.ndarray, at_s: float, iterations: int = 6) -> float:
-    """Value at ``at_s`` of a Huber line fit through (times_s, values)."""
-    A = np.stack([np.ones_like(times_s), times_s - at_s], axis=1)
+    """Value at ``at_s`` of a Huber line fit through (times_s, values) (each iteration's weighted least
+    squares in closed form: two unknowns)."""
+    offsets = times_s - at_s
     weights = np.ones_like(values)
-    coefficients = np.zeros(2)
+    value = 0.0
     for _ in range(iterations):
-        coefficients = np.linalg.lstsq(A * weights[:, None], values * weights, rcond=None)[0]
-        residuals = values - A @ coefficients
-        spread = 1.4826 * float(np.median(np.abs(residuals))) + 1e-3
+        w = weights * weights
+        s0, s1, s2 = w.sum(), w @ offsets, w @ (offsets * offsets)
+        b0, b1 = w @ values, w @ (offsets * values)
+        determinant = s0 * s2 - s1 * s1
+        if determinant > 1e-12 * s0 * s0:
+            value, slope = (s2 * b0 - s1 * b1) / determinant, (s0 * b1 - s1 * b0) / determinant
+        else:  # all at one time: no slope
+            value, slope = b0 / s0, 0.0
+        residuals = values - value - slope * offsets
+        spread = 1.4826 * _median(np.abs(residuals)) + 1e-3
         weights = np.sqrt(np.minimum(1.0, 1.5 * spread / np.maximum(np.abs(residuals), 1e-9)))
-    return float(coefficients[0])
+    return float(value)
+
+
+def _median(values: np.ndarray) -> float:
+    """The median of a few values (``np.median``'s result, without its overhead: it runs six times a frame)."""
+    ordered = np.sort(values)
+    middle = len(ordered) // 2
+    return float(ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2)
 
 
 class SpeedPrior:
