@@ -136,6 +136,13 @@ def _normal_system(links, absolutes, count):
     return np.array(A), np.array(b)
 
 
+def test_a_window_without_any_measurement_leaves_its_steps_undetermined():
+    np.testing.assert_allclose(robust_log_lengths([], [], 3), 0.0)
+    R, t, _ = step(0.0, 1.0)
+    unmeasured = [StepScale(R, t, 0.0, 0.1) for _ in range(3)]  # not even a per-pair length
+    assert [np.linalg.norm(m[:3, 3]) for _, m in run_window(unmeasured)] == [0.0, 0.0, 0.0]
+
+
 def test_robust_solve_of_consistent_measurements_is_exact():
     truth = np.log(np.array([0.5, 0.6, 0.8, 0.7, 0.9]))
     links = [(k, truth[k] - truth[k - 1], 0.01) for k in range(1, 5)]

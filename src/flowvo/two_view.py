@@ -122,11 +122,8 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
 
 
 def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:
-    """Viewing rays (N, 3) with z = 1 of pixels (N, 2) through the upper-triangular intrinsics ``K``
-    (solved in closed form: no inverse per call)."""
-    fx, skew, cx, fy, cy = K[0, 0], K[0, 1], K[0, 2], K[1, 1], K[1, 2]
-    y = (points_px[:, 1] - cy) / fy
-    return np.stack([(points_px[:, 0] - cx - skew * y) / fx, y, np.ones(len(points_px))], axis=1)
+    """Viewing rays (N, 3) with z = 1 of pixels (N, 2)."""
+    return np.c_[points_px, np.ones(len(points_px))] @ np.linalg.inv(K).T
 
 
 def translation_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
