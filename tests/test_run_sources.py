@@ -89,6 +89,9 @@ def test_bench_json_rows_start_with_the_default_method(drive, tmp_path, capsys):
     for row in rows:
         assert row["frames_per_second"] > 0 and row["label"]
         assert {"image_read_s", "flow_s", "network_s", "geometry_s", "chaining_s", "total_s"} <= set(row)
+        # one run each: the ratio is that run's speed over the decoding pass just before it
+        assert row["over_decoding"] == pytest.approx(row["frames_per_second"] / row["decode_frames_per_second"])
+    assert "streaming / decoding, paired run by run: flowvo" in capsys.readouterr().out
 
 
 def test_bad_mcap_frame_ids_are_refused_before_the_run(drive, tmp_path, capsys):

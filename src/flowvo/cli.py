@@ -567,17 +567,16 @@ def _add_demo(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_bench(args: argparse.Namespace) -> int:
-    from flowvo.bench import benchmark, decode_frames_per_second, format_bench_table, write_bench_json
+    from flowvo.bench import benchmark, format_bench_table, write_bench_json
     from flowvo.outputs import prepare_output_file
 
     if args.json:  # checked before the benchmark runs: never into the dataset, never over a file unasked
         prepare_output_file(args.json, args.force, "--json", dataset=args.data)
     options = _run_options(args, "")
     rows = benchmark(options, args.methods, args.frames, args.repeat)
-    decode_fps = decode_frames_per_second(options, args.frames, args.repeat)
-    print(format_bench_table(rows, decode_fps))
+    print(format_bench_table(rows))
     if args.json:
-        write_bench_json(args.json, rows, decode_fps)
+        write_bench_json(args.json, rows)
         print(f"wrote {args.json}")
     return 0
 
