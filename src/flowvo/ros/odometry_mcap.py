@@ -8,7 +8,8 @@ forward-left-up at the first camera; child ``camera_optical``).
 
 Per frame, stamped with the image's stamp (header stamp = MCAP log and publish time):
 - ``odometry_topic`` (nav_msgs/Odometry): pose of the child in the parent frame; twist of the child in the
-  child frame, as ROS defines it (``flowvo.ros.frames.camera_twists``); covariances zero (flowvo estimates none).
+  child frame, as ROS defines it (``flowvo.ros.frames.camera_twists``); covariances zero (flowvo estimates no
+  full covariance; each step's length uncertainty is in ``NAME_steps.csv``).
 - ``tf_topic`` (tf2_msgs/TFMessage): the same transform, parent -> child.
 Once, at the first frame's stamp, with the whole trajectory (one PoseStamped per frame with its own stamp):
 - ``path_topic`` (nav_msgs/Path), offered with transient-local (latched) QoS, so viewers show the full path
