@@ -61,8 +61,8 @@ def test_bench_prints_the_timing_table(classical_runs, capsys):
     assert main(["bench", "--data", str(root), "--sequence", "00", "--frames", "12", "--repeat", "2"]) == 0
     table = capsys.readouterr().out.splitlines()
     assert table[2].startswith("flowvo (") and "0.633" in table[5]  # the default method first, then the reference
-    decoding = table[-1]  # one core decoding the same frames, and each method's streaming rate over it
-    assert decoding.startswith("decoding alone on one core: ") and "flowvo 0." in decoding
+    decoding = table[-1]  # one core decoding the same frames before each run, each method's rate over it
+    assert decoding.startswith("decoding alone on one core before each run: ") and "run by run: flowvo 0." in decoding
     assert table[3].startswith("cnn (") and table[4].startswith("classical (")
     stage_cells = {row.split()[0]: row[63:].split()[:5] for row in table[2:5]}  # read flow network geometry chain
     assert stage_cells["flowvo"][2] == "-" and stage_cells["cnn"][3] == "-"  # no network / no geometry stage
