@@ -112,9 +112,9 @@ class _WindowProblem:
         ``weights`` (links, absolutes, sums), the sums linearised at ``at`` (Gauss-Newton)."""
         count, link_k, absolute_k = self.count, self.link_k, self.absolute_k
         w_link, w_absolute = weights[0] / self.link_sigma**2, weights[1] / self.absolute_sigma**2
+        # float: without any measurement bincount's zeros are integers
         normal = np.bincount(self._cells, np.concatenate([w_link, w_link, -w_link, -w_link, w_absolute]),
-                             count * count).astype(np.float64, copy=False).reshape(count, count)  # no
-        # measurement at all: bincount's zeros are integers
+                             count * count).astype(np.float64, copy=False).reshape(count, count)
         normal.flat[:: count + 1] += UNDETERMINED_WEIGHT
         rhs = (np.bincount(link_k, w_link * self.link_value, count)
                - np.bincount(link_k - 1, w_link * self.link_value, count)
