@@ -176,13 +176,18 @@ def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane
 
 def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
                        max_tilt_rad: float = MAX_ROAD_TILT_RAD, min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION,
-                       min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
+                       min_parallax_px: float = 0.0, levelling: np.ndarray | None = None,
+                       tally: RoadPlaneTally | None = None) -> RoadPlane | None:
     """The road plane the camera stands on, from road correspondences (distance in units of the step, the
-    camera's frame), or None: :func:`road_plane_candidate` that passes :func:`is_trusted_road`."""
+    camera's frame), or None: :func:`road_plane_candidate` that passes :func:`is_trusted_road`; each
+    candidate is counted in ``tally`` when given."""
     plane = road_plane_candidate(points_prev, points_next, K, motion, min_parallax_px, levelling)
-    if plane is None or not is_trusted_road(plane, max_tilt_rad, min_inlier_fraction):
+    if plane is None:
         return None
-    return in_camera_frame(plane, levelling)
+    trusted = is_trusted_road(plane, max_tilt_rad, min_inlier_fraction)
+    if tally is not None:
+        tally.add(plane, trusted, max_tilt_rad)
+    return in_camera_frame(plane, levelling) if trusted else None
 
 
 FIT_PITCH_SIGMA_RAD = 0.005  # a plane's normal from one step of road, its centre 7.4 step lengths ahead (real

@@ -165,13 +165,17 @@ def robust_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tu
     road measured from a key frame several steps back). A connected run of steps without an absolute
     measurement or sum is left near 0 (undetermined).
     """
-    problem = _WindowProblem(links, absolutes, count, sums)
+    return _robust_solution(_WindowProblem(links, absolutes, count, sums), threshold, iterations)
 
+
+def _robust_solution(problem: _WindowProblem, threshold: float = HUBER_THRESHOLD,
+                     iterations: int = HUBER_ITERATIONS) -> np.ndarray:
+    """:func:`robust_log_lengths` of a window's measurements already gathered as arrays."""
     def solve(weights: tuple[np.ndarray, np.ndarray, np.ndarray], at: np.ndarray) -> np.ndarray:
         return np.linalg.solve(*problem.normal_equations(weights, at))
 
     x = solve((np.ones(len(problem.link_k)), np.ones(len(problem.absolute_k)), np.ones(len(problem.sum_value))),
-              np.zeros(count))
+              np.zeros(problem.count))
     for _ in range(iterations):
         x = solve(tuple(np.minimum(1.0, threshold / np.maximum(r, 1e-12)) for r in problem.normalised(x)), x)
     for _ in range(MAX_CAUCHY_ITERATIONS):
@@ -187,7 +191,11 @@ def log_length_sigmas(links: list[tuple[int, float, float]], absolutes: list[tup
     """The standard deviation (count,) of each solved log length ``x`` (a robust solve's result): the
     diagonal of the inverse normal matrix, each measurement under the Cauchy weight it keeps at ``x``
     (Laplace's approximation; a step no measurement reaches gets a huge sigma)."""
-    problem = _WindowProblem(links, absolutes, count, sums)
+    return _sigmas(_WindowProblem(links, absolutes, count, sums), x, threshold)
+
+
+def _sigmas(problem: _WindowProblem, x: np.ndarray, threshold: float = HUBER_THRESHOLD) -> np.ndarray:
+    """:func:`log_length_sigmas` of a window's measurements already gathered as arrays."""
     normal, _ = problem.normal_equations(tuple(cauchy_weight(r, threshold) for r in problem.normalised(x)), x)
     return np.sqrt(np.diag(np.linalg.inv(normal)))
 
@@ -267,7 +275,9 @@ class ScaleWindow:
         self.window_s = window_s
         self.ratios = ratios  # False: the road lengths alone, averaged (for the ablation)
         self.marginalise = marginalise  # False: steps that leave the window are forgotten (for the ablation)
-        self.solve = {"cholesky": robust_log_lengths, "scipy": scipy_log_lengths}[solver]  # scipy: for the ablation
+        if solver not in ("cholesky", "scipy"):
+            raise ValueError(f"unknown window solver {solver!r}")
+        self.solver = solver  # scipy: SciPy's least_squares, for the ablation
         self._steps: deque[tuple[float, StepScale]] = deque()  # the window: emitted steps, then pending ones
         self._pending = 0
         self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
@@ -298,11 +308,13 @@ class ScaleWindow:
         if not count:
             return []
         links, absolutes, sums = self._measurements()
-        log_lengths = self.solve(links, absolutes, len(self._steps), sums=sums)
+        problem = _WindowProblem(links, absolutes, len(self._steps), sums)  # one per solve, sigmas included
+        log_lengths = _robust_solution(problem) if self.solver == "cholesky" else \
+            scipy_log_lengths(links, absolutes, len(self._steps), sums=sums)
         measured = [k for k, _, _ in absolutes] + [last for _, last, _, _ in sums]
         anchored = self._anchored(links, measured)
         lengths = np.where(anchored, np.exp(log_lengths), [step.pair_m for _, step in self._steps])
-        sigmas = log_length_sigmas(links, absolutes, len(self._steps), log_lengths, sums=sums)
+        sigmas = _sigmas(problem, log_lengths)
         first = len(self._steps) - self._pending
         emitted = [(self._steps[k][0], invert_se3(se3_next_prev(self._steps[k][1].R,
                                                                 self._steps[k][1].t_dir * lengths[k])))

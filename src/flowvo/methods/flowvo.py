@@ -34,14 +34,12 @@ from flowvo.road_scale import (
     NetworkFallbackPolicy,
     RoadNormal,
     RoadPlaneTally,
-    in_camera_frame,
-    is_trusted_road,
     road_crop,
     road_grid,
     road_homography,
-    road_plane_candidate,
     road_points_in_view,
     road_room,
+    trusted_road_plane,
 )
 from flowvo.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.scale_window import ScaleWindow, StepRecord, StepScale
@@ -284,12 +282,9 @@ class FlowGeometryStep(WorkingFrames):
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
         self.road_normal.advance(fit.R, dt_s)
-        plane = None if key_fit is None else road_plane_candidate(flow.road_prev, flow.road_next, self.K, key_fit,
-                                                                  self.min_road_parallax_px, self.levelling)
-        if plane is not None:
-            trusted = is_trusted_road(plane)
-            self.road_tally.add(plane, trusted)
-            plane = in_camera_frame(plane, self.levelling) if trusted else None
+        plane = None if key_fit is None else trusted_road_plane(
+            flow.road_prev, flow.road_next, self.K, key_fit, min_parallax_px=self.min_road_parallax_px,
+            levelling=self.levelling, tally=self.road_tally)
         if plane is not None:
             plane = self.road_normal.smoothed(plane, key_fit.R, keep=road_measured)
         road_m = None if plane is None else self.camera_height_m / plane.distance  # since the key frame
