@@ -8,6 +8,7 @@ frame is ``R X + t`` in the second camera's frame.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import cv2
@@ -123,7 +124,18 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
 
 def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Viewing rays (N, 3) with z = 1 of pixels (N, 2)."""
-    return np.c_[points_px, np.ones(len(points_px))] @ np.linalg.inv(K).T
+    homogeneous = np.ones((len(points_px), 3))
+    homogeneous[:, :2] = points_px
+    return homogeneous @ _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes()).T
+
+
+@functools.lru_cache(maxsize=8)
+def _inverse_intrinsics(K_bytes: bytes) -> np.ndarray:
+    """The inverse of the 3x3 float64 intrinsics given as bytes (a drive has one camera: inverted once,
+    not at each of the ~11 ray computations per frame)."""
+    inverse = np.linalg.inv(np.frombuffer(K_bytes).reshape(3, 3))
+    inverse.flags.writeable = False
+    return inverse
 
 
 def translation_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
