@@ -96,6 +96,25 @@ def test_mcap_reads_back_through_rosbags_with_stamps_frames_and_poses(tmp_path):
     assert path.poses[-1].header.stamp == topics["/flowvo/odom"][-1][1].header.stamp
 
 
+def test_mcap_carries_the_covariances_twist_per_second_in_the_camera_pose_along_odom(tmp_path):
+    T, stamps = constant_motion(4, yaw_rad=0.0), stamps_s(4)
+    steps = np.zeros((3, 6, 6))
+    steps[:, 2, 2] = 0.01  # forward (camera z): 0.1 m a step
+    steps[:, 4, 4] = 1e-6  # about the camera's y axis (down)
+    poses = np.zeros((4, 6, 6))
+    poses[1:, 2, 2] = [0.01, 0.02, 0.03]
+    messages = [odom for _, odom in read_with_rosbags(write_odometry_mcap(
+        tmp_path / "c.mcap", stamps, T, covariances=(steps, poses)))["/flowvo/odom"]]
+    twist = [np.array(m.twist.covariance).reshape(6, 6) for m in messages]
+    pose = [np.array(m.pose.covariance).reshape(6, 6) for m in messages]
+    for index in range(4):  # frame 0 takes the first step's twist, as its velocity does
+        np.testing.assert_allclose(twist[index], steps[max(index - 1, 0)] / DT_S**2, rtol=1e-5)  # stamps in 1.7e9 s
+    assert not pose[0].any()
+    np.testing.assert_allclose(np.diag(pose[3]), [0.03, 0.0, 0.0, 0.0, 0.0, 0.0], atol=1e-15)  # forward is odom x
+    without = read_with_rosbags(write_odometry_mcap(tmp_path / "z.mcap", stamps, T))["/flowvo/odom"]
+    assert not any(np.any(odom.pose.covariance) or np.any(odom.twist.covariance) for _, odom in without)
+
+
 def test_mcap_reads_with_the_mcap_library_and_its_embedded_ros2_schemas(tmp_path):
     from mcap.reader import make_reader
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore

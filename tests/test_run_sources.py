@@ -78,6 +78,10 @@ def test_a_bag_of_the_frames_gives_the_same_poses_and_an_odometry_mcap(drive, tm
     position = last.pose.pose.position
     assert np.linalg.norm([position.x, position.y, position.z]) == pytest.approx(
         np.linalg.norm(kitti_poses[-1][[3, 7, 11]]), rel=1e-6)
+    # the default method's covariances: the twist's from the step records, the pose's growing along the drive
+    twist = np.array([np.diag(np.reshape(m.twist.covariance, (6, 6))) for m in messages])
+    pose = np.array([np.trace(np.reshape(m.pose.covariance, (6, 6))[:3, :3]) for m in messages])
+    assert (twist > 0).all() and pose[0] == 0 and np.all(np.diff(pose) > 0)
 
 
 def test_bench_json_rows_start_with_the_default_method(drive, tmp_path, capsys):

@@ -20,6 +20,7 @@ from flowvo.errors import FlowvoError
 from flowvo.evaluation import evaluate, save_evaluation
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
 from flowvo.methods.base import OdometryStep
+from flowvo.odometry_covariance import records_covariances
 from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs, steps_csv_name
 from flowvo.steps_csv import write_steps_csv
 from flowvo.trajectory import Trajectory
@@ -102,7 +103,8 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
 
         write_odometry_mcap(out / f"{source.name}.mcap", result.timestamps_s, result.T_world_cam,
                             frame_id=options.frame_id, child_frame_id=options.child_frame_id,
-                            exact_stamps_ns=None if source.stamps_ns is None else source.stamps_ns[:result.frames])
+                            exact_stamps_ns=None if source.stamps_ns is None else source.stamps_ns[:result.frames],
+                            covariances=None if records is None else records_covariances(result.T_world_cam, records))
         summary["mcap"] = f"{source.name}.mcap"
     summary.update(step.summary())
     if ground_truth is not None:

@@ -8,8 +8,9 @@ forward-left-up at the first camera; child ``camera_optical``).
 
 Per frame, stamped with the image's stamp (header stamp = MCAP log and publish time):
 - ``odometry_topic`` (nav_msgs/Odometry): pose of the child in the parent frame; twist of the child in the
-  child frame, as ROS defines it (``flowvo.ros.frames.camera_twists``); covariances zero (flowvo estimates no
-  full covariance; each step's length uncertainty is in ``NAME_steps.csv``).
+  child frame, as ROS defines it (``flowvo.ros.frames.camera_twists``); with their covariances when given
+  (:mod:`flowvo.odometry_covariance`: the twist's in the child frame, the pose's along the parent's axes),
+  else zero.
 - ``tf_topic`` (tf2_msgs/TFMessage): the same transform, parent -> child.
 Once, at the first frame's stamp, with the whole trajectory (one PoseStamped per frame with its own stamp):
 - ``path_topic`` (nav_msgs/Path), offered with transient-local (latched) QoS, so viewers show the full path
@@ -29,7 +30,7 @@ from flowvo.atomic import atomic_path
 from flowvo.errors import FlowvoError
 from flowvo.kitti.poses import rotation_to_quaternion_xyzw
 from flowvo.ros.extra import require_ros_extra
-from flowvo.ros.frames import camera_twists, odom_poses
+from flowvo.ros.frames import camera_twist_covariances, camera_twists, odom_pose_covariances, odom_poses
 
 DEFAULT_FRAME_ID = "odom"
 DEFAULT_CHILD_FRAME_ID = "camera_optical"
@@ -41,11 +42,14 @@ DEFAULT_PATH_TOPIC = "/flowvo/path"
 def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam: np.ndarray,
                         frame_id: str = DEFAULT_FRAME_ID, child_frame_id: str = DEFAULT_CHILD_FRAME_ID,
                         odometry_topic: str = DEFAULT_ODOMETRY_TOPIC, tf_topic: str = DEFAULT_TF_TOPIC,
-                        path_topic: str = DEFAULT_PATH_TOPIC, exact_stamps_ns: np.ndarray | None = None) -> Path:
+                        path_topic: str = DEFAULT_PATH_TOPIC, exact_stamps_ns: np.ndarray | None = None,
+                        covariances: tuple[np.ndarray, np.ndarray] | None = None) -> Path:
     """Write the camera poses ``T_world_cam`` (N, 4, 4; flowvo's optical world frame, metres) stamped with
     ``timestamps_s`` (N,; seconds, non-negative, strictly increasing; rounded to nanoseconds), or with
     ``exact_stamps_ns`` (N,) when given (the images' own integer stamps), to the MCAP file ``path``,
-    atomically (a temporary file renamed into place); returns ``path``.
+    atomically (a temporary file renamed into place); returns ``path``. ``covariances``: the steps' (N - 1,
+    6, 6) and the poses' (N, 6, 6), each in its camera's frame (:mod:`flowvo.odometry_covariance`); without
+    them the messages' covariances are zero.
 
     Raises ValueError for arrays of the wrong shape or stamps out of order, and FlowvoError for frame ids
     that tf2 refuses (empty, leading '/', parent == child) and topics that are not absolute ROS names.
@@ -62,6 +66,11 @@ def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam:
     messages = _Messages(store, frame_id, child_frame_id)
     T_odom_cam = odom_poses(T_world_cam)
     linear_mps, angular_radps = camera_twists(timestamps_s, T_world_cam)
+    if covariances is None:
+        pose_covariance = twist_covariance = np.zeros((len(T_world_cam), 6, 6))
+    else:
+        pose_covariance = odom_pose_covariances(T_world_cam, covariances[1])
+        twist_covariance = camera_twist_covariances(timestamps_s, covariances[0])
     target = Path(path)
     with atomic_path(target) as tmp_file, tempfile.TemporaryDirectory(prefix=f".{target.stem}.",
                                                                       dir=target.parent) as tmp_dir:
@@ -74,9 +83,10 @@ def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam:
             tf_conn = writer.add_connection(tf_topic, "tf2_msgs/msg/TFMessage", typestore=store,
                                             offered_qos_profiles=[_qos(depth=100, latched=False)])
             writer.write(path_conn, stamps_ns[0], messages.serialize(messages.path(stamps_ns, T_odom_cam)))
-            for stamp_ns, pose, linear, angular in zip(stamps_ns, T_odom_cam, linear_mps, angular_radps, strict=True):
-                writer.write(odometry_conn, stamp_ns,
-                             messages.serialize(messages.odometry(stamp_ns, pose, linear, angular)))
+            for stamp_ns, pose, linear, angular, pose_cov, twist_cov in zip(
+                    stamps_ns, T_odom_cam, linear_mps, angular_radps, pose_covariance, twist_covariance, strict=True):
+                writer.write(odometry_conn, stamp_ns, messages.serialize(
+                    messages.odometry(stamp_ns, pose, linear, angular, pose_cov, twist_cov)))
                 writer.write(tf_conn, stamp_ns, messages.serialize(messages.tf(stamp_ns, pose)))
         os.replace(bag / "bag.mcap", tmp_file)
     return target
@@ -166,13 +176,14 @@ class _Messages:
         return self.types["geometry_msgs/msg/Pose"](position=self.vector3(T[:3, 3], "geometry_msgs/msg/Point"),
                                                     orientation=self.quaternion(T[:3, :3]))
 
-    def odometry(self, stamp_ns: int, T: np.ndarray, linear_mps: np.ndarray, angular_radps: np.ndarray) -> Any:
+    def odometry(self, stamp_ns: int, T: np.ndarray, linear_mps: np.ndarray, angular_radps: np.ndarray,
+                 pose_covariance: np.ndarray, twist_covariance: np.ndarray) -> Any:
         t = self.types
         twist = t["geometry_msgs/msg/Twist"](linear=self.vector3(linear_mps), angular=self.vector3(angular_radps))
         return t["nav_msgs/msg/Odometry"](
             header=self.header(stamp_ns), child_frame_id=self.child_frame_id,
-            pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=self.pose(T), covariance=np.zeros(36)),
-            twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)))
+            pose=t["geometry_msgs/msg/PoseWithCovariance"](pose=self.pose(T), covariance=pose_covariance.ravel()),
+            twist=t["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=twist_covariance.ravel()))
 
     def tf(self, stamp_ns: int, T: np.ndarray) -> Any:
         t = self.types
