@@ -17,20 +17,10 @@ from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
 from flowvo.geometry import invert_se3, relative_motions, so3_log
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.odometry_covariance import drift_covariances, records_covariances
-from flowvo.scale_window import StepRecord
+from flowvo.odometry_covariance import chained_covariances, records_covariances
+from flowvo.steps_csv import read_steps_csv
 
 CHI2_3DOF_95 = 7.815  # the 95 % quantile of a chi-square with 3 degrees of freedom
-
-
-def read_records(path: Path) -> list[StepRecord]:
-    """The step records of a ``NAME_steps.csv``."""
-    records = []
-    for line in path.read_text().splitlines()[1:]:
-        _, time_s, length_m, log_sigma, measured_by = line.split(",")
-        records.append(StepRecord(float(time_s), float(length_m), float(log_sigma) if log_sigma else None,
-                                  measured_by))
-    return records
 
 
 def share_inside(errors: np.ndarray, covariances: np.ndarray) -> float:
@@ -44,12 +34,12 @@ def row(data: Path, clip: str, out: Path) -> str:
                    check=True, capture_output=True)
     estimate = read_kitti_poses(out / f"{clip}.txt").T_world_cam
     truth = read_kitti_poses(data / "poses" / f"{clip}.txt").T_world_cam[: len(estimate)]
-    records = read_records(out / f"{clip}_steps.csv")
+    records = read_steps_csv(out / f"{clip}_steps.csv")
     steps, poses = records_covariances(estimate, records)
-    step_error = invert_se3(relative_motions(estimate)) @ relative_motions(truth)  # true = estimate exp(xi)
+    motions = relative_motions(estimate)
+    step_error = invert_se3(motions) @ relative_motions(truth)  # true = estimate exp(xi)
     moving = np.array([record.measured_by != "standstill" for record in records])
-    path_m = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(estimate[:, :3, 3], axis=0), axis=1))])
-    without_drift = poses - drift_covariances(path_m)
+    without_drift = chained_covariances(motions, steps)
     position_error = np.einsum("nji,nj->ni", estimate[:, :3, :3], truth[:, :3, 3] - estimate[:, :3, 3])[1:]
     orientation_error = so3_log(np.einsum("nji,njk->nik", estimate[:, :3, :3], truth[:, :3, :3]))[1:]
     cells = [share_inside(step_error[moving, :3, 3], steps[moving, :3, :3]),

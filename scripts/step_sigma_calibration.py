@@ -16,6 +16,7 @@ import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
 from flowvo.kitti.poses import read_kitti_poses
+from flowvo.steps_csv import read_steps_csv
 
 MIN_TRUE_STEP_M = 0.2
 
@@ -23,11 +24,11 @@ MIN_TRUE_STEP_M = 0.2
 def row(data: Path, clip: str, out: Path) -> tuple[str, np.ndarray]:
     subprocess.run(["flowvo", "-q", "run", "--data", str(data), "--sequence", clip, "--out", str(out), "--force"],
                    check=True, capture_output=True)
-    rows = [line.split(",") for line in (out / f"{clip}_steps.csv").read_text().splitlines()[1:]]
+    records = read_steps_csv(out / f"{clip}_steps.csv")
     truth = read_kitti_poses(data / "poses" / f"{clip}.txt").positions
     true_m = np.linalg.norm(np.diff(truth, axis=0), axis=1)
-    kept = [(float(r[2]), float(r[3]), t) for r, t in zip(rows, true_m, strict=True)
-            if r[3] and t >= MIN_TRUE_STEP_M]
+    kept = [(r.length_m, r.log_sigma, t) for r, t in zip(records, true_m, strict=True)
+            if r.log_sigma is not None and t >= MIN_TRUE_STEP_M]
     length_m, sigma, t = (np.array(column) for column in zip(*kept, strict=True))
     error = np.log(length_m / t)
     z = np.abs(error) / sigma

@@ -3,7 +3,7 @@
 import pytest
 
 from flowvo.scale_window import StepRecord
-from flowvo.steps_csv import HEADER, write_steps_csv
+from flowvo.steps_csv import HEADER, read_steps_csv, write_steps_csv
 
 
 def test_each_step_is_a_row_and_a_missing_sigma_an_empty_cell(tmp_path):
@@ -12,6 +12,14 @@ def test_each_step_is_a_row_and_a_missing_sigma_an_empty_cell(tmp_path):
     write_steps_csv(path, records, frames=3)
     assert path.read_text().splitlines() == [HEADER, "1,0.100000000,1.250000,0.012346,road+ratio",
                                              "2,0.200000000,0.000000,,standstill"]
+    assert read_steps_csv(path) == [StepRecord(0.1, 1.25, 0.012346, "road+ratio"), records[1]]
+
+
+def test_a_file_of_another_layout_is_not_read_as_step_records(tmp_path):
+    path = tmp_path / "00.txt"
+    path.write_text("1 0 0 0 0 1 0 0 0 0 1 0\n")
+    with pytest.raises(ValueError, match="not a step records file"):
+        read_steps_csv(path)
 
 
 def test_records_that_do_not_match_the_frames_are_refused(tmp_path):
