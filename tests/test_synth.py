@@ -7,8 +7,9 @@ import pytest
 from flowvo.cli import main
 from flowvo.geometry import planar_targets
 from flowvo.kitti.sequence import KittiSequence
-from flowvo.synth.camera_path import generate_path
+from flowvo.synth.camera_path import generate_path, levelled
 from flowvo.synth.dataset import sequence_seed, synthesize
+from flowvo.synth.world import World, build_world
 
 
 @pytest.fixture(scope="module")
@@ -33,9 +34,33 @@ def test_calibration_is_kitti_intrinsics_scaled(synthetic_root):
     assert calib.baseline_m == pytest.approx(0.54)
 
 
-def test_pose_file_holds_the_rendered_path(synthetic_root):
-    expected = generate_path(20, sequence_seed(3, "00"))
+def test_pose_file_holds_the_rendered_path_relative_to_its_first_camera(synthetic_root):
+    path = generate_path(20, sequence_seed(3, "00"))
+    assert abs(path[0, 1, 2]) > 0.01  # the drive starts on a grade: its first camera is pitched in the world
+    expected = np.linalg.inv(path[0]) @ path
     np.testing.assert_allclose(KittiSequence(synthetic_root, "00").poses.T_world_cam, expected, atol=1e-8)
+
+
+def _road_tilt_deg(world: World, T_world_cam: np.ndarray) -> tuple[float, float]:
+    """Roll and pitch (degrees) of the ground 5-20 m ahead of the camera, in its frame (plane through
+    the world's ground heights below a grid of points 1.65 m under the camera)."""
+    across, ahead = np.meshgrid(np.linspace(-3, 3, 7), np.linspace(5, 20, 7))
+    points = T_world_cam @ np.stack([across.ravel(), np.full(across.size, 1.65), ahead.ravel(), np.ones(across.size)])
+    points[1] = world.lookup(world.ground_y, points[0], points[2])
+    in_camera = (np.linalg.inv(T_world_cam) @ points)[:3].T
+    normal = np.linalg.svd(in_camera - in_camera.mean(0))[2][2]
+    normal *= np.sign(normal[1])
+    return float(np.degrees(np.arctan2(-normal[0], normal[1]))), float(np.degrees(np.arctan2(normal[2], normal[1])))
+
+
+def test_the_road_stays_level_under_the_camera_after_a_turn_from_a_grade():
+    """Seed 11 starts on a 4.4 degree grade and has turned 67 degrees by frame 149: a world built in the
+    first camera's frame rolled the road 4.6 degrees against the camera there."""
+    path = generate_path(150, 11)
+    world = build_world(path, 11)
+    for frame in (0, 75, 149):
+        roll_deg, pitch_deg = _road_tilt_deg(world, path[frame])
+        assert abs(roll_deg) < 0.5 and abs(pitch_deg) < 2.0  # jitter 0.34 deg; grade changes ahead
 
 
 def test_true_flow_warps_next_frame_onto_current(synthetic_root):
@@ -87,3 +112,31 @@ def test_cli_replays_a_real_trajectory(kitti_poses_dir, tmp_path, capsys):
 def test_cli_rejects_missing_trajectory(tmp_path, capsys):
     code = main(["synth", "--out", str(tmp_path), "--trajectory", str(tmp_path / "nope.txt")])
     assert code == 2 and "nope.txt: pose file not found" in capsys.readouterr().err
+
+
+def test_a_replayed_drive_is_levelled_by_its_cameras_lateral_axes():
+    """A generated drive (exact gravity) given in its first camera's frame, as a replayed pose file is:
+    the levelled poses put gravity back along y to within the roll jitter, and leave the motions alone."""
+    path = generate_path(600, 1021)  # starts on a grade and turns
+    replayed = np.linalg.inv(path[0]) @ path
+    level = levelled(replayed)
+    heading_only = level[0] @ np.linalg.inv(path[0])  # the world frames differ by a rotation about y alone
+    assert np.degrees(np.arccos(np.clip(heading_only[1, 1], -1, 1))) < 0.1
+    assert np.degrees(np.arccos(path[0, 1, 1])) > 1.0  # the first camera, and so the replayed frame, was tilted
+    np.testing.assert_allclose(np.linalg.inv(level[:-1]) @ level[1:], np.linalg.inv(replayed[:-1]) @ replayed[1:],
+                               atol=1e-9)
+
+
+def test_a_drive_that_never_turns_keeps_its_frame_about_the_lateral_axis():
+    """Straight along z on a 3 degree climb, camera rolled 2 degrees: the x axes say nothing of the pitch,
+    so only the roll is removed."""
+    pitch, roll = np.radians(3.0), np.radians(2.0)
+    pose = np.eye(4)
+    pose[:3, :3] = np.array([[1, 0, 0], [0, np.cos(pitch), -np.sin(pitch)], [0, np.sin(pitch), np.cos(pitch)]]) @ \
+        np.array([[np.cos(roll), -np.sin(roll), 0], [np.sin(roll), np.cos(roll), 0], [0, 0, 1]])
+    drive = np.repeat(pose[None], 20, axis=0)
+    drive[:, :3, 3] = np.arange(20)[:, None] * pose[:3, 2]
+    level = levelled(drive)
+    np.testing.assert_allclose(level[:, 1, 0], 0.0, atol=1e-4)  # the x axes level (0.006 deg: the prior's pull)
+    forward = level[0, :3, 2]
+    assert np.degrees(np.arcsin(-forward[1])) == pytest.approx(3.0, abs=0.01)  # the climb kept

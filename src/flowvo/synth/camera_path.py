@@ -80,7 +80,12 @@ def _speed_profile(rng: np.random.Generator, n_frames: int, config: PathConfig, 
 
 
 def generate_path(n_frames: int, seed: int, config: PathConfig | None = None) -> np.ndarray:
-    """Camera-to-world poses (n_frames, 4, 4) of a generated drive starting at the identity."""
+    """Camera-to-world poses (n_frames, 4, 4) of a generated drive, in a level world frame (y down along
+    gravity): the first camera at the origin, heading along +z, pitched with the road's grade there. The
+    world is built and rendered in this frame; the pose file holds the drive relative to its first camera
+    (:func:`flowvo.synth.sequence_writer.write_sequence`). Taking the first camera's frame as the world's
+    instead would tilt it by the starting grade: after a turn the camera then rolls against a road built
+    level in that frame (a drive starting on a 6 degree grade: 6 degrees of roll after a quarter turn)."""
     config = config or PathConfig()
     rng = np.random.default_rng(seed)
     knots, kappas = _curvature_schedule(rng, n_frames * config.max_speed_mps * FRAME_PERIOD_S + 300.0, config)
@@ -113,5 +118,31 @@ def generate_path(n_frames: int, seed: int, config: PathConfig | None = None) ->
     poses = np.tile(np.eye(4), (n_frames, 1, 1))
     poses[:, :3, :3] = yaw_rotation(yaw) @ _rotation_x(pitch) @ _rotation_z(roll)
     poses[:, :3, 3] = np.stack([x, y, z], 1)
-    start_inverse = np.linalg.inv(poses[0])
-    return start_inverse @ poses
+    return poses
+
+
+def levelled(T_world_cam: np.ndarray, prior_weight: float = 1e-3) -> np.ndarray:
+    """Camera-to-world poses (N, 4, 4) of a replayed drive turned about the first camera into a level world
+    frame, for building and rendering its world (whose road is built level across, y down).
+
+    A real drive's poses are given in its first camera's frame, tilted against gravity by the grade and
+    roll where it started (KITTI 08: 4 degrees). "Down" is estimated as the direction the cameras' x axes
+    are most nearly perpendicular to (a car's lateral axis stays about level as it turns): the eigenvector
+    of the smallest eigenvalue of sum(x x^T), plus ``prior_weight`` times the number of poses times the
+    projector away from the given y axis, so that a drive that never turns keeps the given frame in the
+    direction its x axes cannot tell. Relative motions are unchanged."""
+    lateral = T_world_cam[:, :3, 0]
+    y_axis = np.array([0.0, 1.0, 0.0])
+    scatter = lateral.T @ lateral + prior_weight * len(lateral) * (np.eye(3) - np.outer(y_axis, y_axis))
+    down = np.linalg.eigh(scatter)[1][:, 0]
+    down *= np.sign(down[1])
+    axis = np.cross(down, y_axis)  # the rotation taking ``down`` onto the y axis
+    sine, cosine = float(np.linalg.norm(axis)), float(down @ y_axis)
+    if sine < 1e-12:
+        return T_world_cam.copy()
+    axis /= sine
+    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    rotation = np.eye(3) + sine * cross + (1.0 - cosine) * cross @ cross
+    level = np.eye(4)
+    level[:3, :3] = rotation
+    return level @ T_world_cam

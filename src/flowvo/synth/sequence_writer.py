@@ -39,7 +39,8 @@ STEREO_BASELINE_M = 0.54
 @dataclass(frozen=True)
 class SynthSpec:
     """What to render for one sequence: the drive (``T_world_cam``, camera-to-world poses at the path's
-    10 Hz; the world follows it), the world seed and scene, the image scale, the camera, and how many
+    10 Hz, in the frame the world is built in: y down along gravity for a generated drive; the world
+    follows it), the world seed and scene, the image scale, the camera, and how many
     ``frames`` to render at the camera's frame rate (None: the whole drive)."""
 
     T_world_cam: np.ndarray
@@ -122,7 +123,8 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
     poses = spec.frame_poses()
     write_text_atomic(directory / "calib.txt", format_calibration(kitti_calibration(K, camera)))
     write_text_atomic(directory / "times.txt", "".join(f"{i / camera.fps:.6e}\n" for i in range(len(poses))))
-    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(poses))
+    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(invert_se3(poses[0]) @ poses))  # as
+    # KITTI's: relative to the first camera
     write_json_atomic(directory / "synthetic.json", {
         "synthetic": True, "seed": spec.seed, "scene": spec.scene or "varied", "scale": spec.scale,
         "frames": len(poses), "generator": "flowvo synth", "spec_sha256": spec_digest(spec),
