@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from flowvo.speed_prior import MAX_EXTRAPOLATION_S, SpeedPrior, robust_line_value
+from flowvo.speed_prior import MAX_EXTRAPOLATION_S, RESTART_SPEED_MPS, SpeedPrior, robust_line_value
 
 
 def test_a_line_through_exact_measurements_is_reproduced():
@@ -47,3 +47,22 @@ def test_a_trend_is_held_once_the_measurements_stop_for_longer_than_the_extrapol
 
 def test_no_measurement_yet_gives_none():
     assert SpeedPrior().update(0.0, None) is None
+
+
+def test_pulling_away_no_speed_beyond_what_1_g_reaches_since_the_standstill_is_taken():
+    """A road plane ten times too far, 0.7 s after a standstill (synthetic drive 21): 39.8 m/s is refused
+    and the speed follows the line of the measurements before it; a prior that saw no standstill takes it
+    (Huber counts it, linearly)."""
+    assert SpeedPrior().max_speed_at(5.0) == SpeedPrior().max_speed_mps  # no standstill seen: the limit alone
+    for stopped in (True, False):
+        prior = SpeedPrior()
+        prior.stop(0.0) if stopped else prior.update(0.0, 0.0)
+        for i in range(1, 7):
+            prior.update(0.1 * i, 3.0 * 0.1 * i)  # pulling away at 3 m/s^2
+        speed = prior.update(0.7, 39.8)
+        assert (speed == pytest.approx(2.1, abs=1e-9)) if stopped else speed > 4.0
+    assert prior.max_speed_at(0.7) == prior.max_speed_mps
+    stopped = SpeedPrior()
+    stopped.stop(0.0)
+    assert stopped.max_speed_at(0.7) == pytest.approx(RESTART_SPEED_MPS + 9.81 * 0.7)
+    assert stopped.max_speed_at(10.0) == stopped.max_speed_mps  # long after: the speed limit again

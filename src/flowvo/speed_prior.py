@@ -15,6 +15,9 @@ import numpy as np
 SPEED_WINDOW_S = 0.9  # the robust line's span: nine frames at KITTI's 10 Hz, where it was tuned
 MIN_WINDOW = 9  # measurements in the line at least (lower frame rates span more time, as tuned on 5-10 Hz)
 SPEED_HORIZON_S = 1.0  # the window's nine frames span 0.9 s at KITTI's 10 Hz; a longer gap ends the history
+MAX_ACCELERATION_MPS2 = 9.81  # no car's tyres accelerate it faster (1 g)
+RESTART_SPEED_MPS = 3.0  # a car is called still until its flow passes a threshold: it may already be moving
+# this fast when the last standstill is seen (synthetic drive 21: 1.8 m/s)
 MAX_EXTRAPOLATION_S = 0.5  # the line is followed this far past its last measurement, then held: a trend read
 # off 0.9 s says nothing of the seconds after it (synthetic 10, a car braking for 2.5 s without a trusted road:
 # the line's acceleration extrapolated to 5.5 m per step where the car made 0.4)
@@ -53,7 +56,8 @@ class SpeedPrior:
 
     ``update(time_s, speed_mps)`` takes a measurement (None when the frame gave none) and returns the
     filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed).
-    Measurements above ``max_speed_mps`` are rejected as implausible. Without new measurements the line is
+    Measurements above :meth:`max_speed_at` are rejected as implausible: ``max_speed_mps``, and after a
+    standstill what a car can reach since (``RESTART_SPEED_MPS`` + 1 g times the time). Without new measurements the line is
     followed for ``MAX_EXTRAPOLATION_S`` past the last one, then its speed there is held. A gap between
     frames longer than ``horizon_s`` (a paused recording, dropped frames) restarts the prior: the speed
     before it says nothing of the motion over it, so it is never extrapolated across (an hour's gap at
@@ -73,10 +77,19 @@ class SpeedPrior:
         self._history: deque[tuple[float, float]] = deque(maxlen=MIN_WINDOW)
         self._last_time_s: float | None = None
         self._intervals_s: deque[float] = deque(maxlen=15)
+        self._stopped_s: float | None = None  # the last standstill seen
+
+    def max_speed_at(self, time_s: float) -> float:
+        """The highest plausible speed (m/s) at ``time_s``: ``max_speed_mps``, or less soon after a
+        standstill (a car pulling away gains at most 1 g; a plane ten times too far put a step at 40 m/s 0.7
+        s after one)."""
+        if self._stopped_s is None:
+            return self.max_speed_mps
+        return min(self.max_speed_mps, RESTART_SPEED_MPS + MAX_ACCELERATION_MPS2 * (time_s - self._stopped_s))
 
     def update(self, time_s: float, speed_mps: float | None) -> float | None:
         """The filtered speed (m/s) at ``time_s``, or None while there is no measurement at all."""
-        plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_mps
+        plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_at(time_s)
         gap = self._last_time_s is not None and time_s - self._last_time_s > self.horizon_s
         if self._last_time_s is not None and not gap:
             self._fit_window(time_s - self._last_time_s)
@@ -104,4 +117,4 @@ class SpeedPrior:
         """A standstill at ``time_s``: earlier speeds no longer describe the motion."""
         self._history.clear()
         self._history.append((time_s, 0.0))
-        self._last_time_s = time_s
+        self._last_time_s = self._stopped_s = time_s

@@ -306,7 +306,7 @@ class FlowGeometryStep(WorkingFrames):
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
         if self.window is not None:
-            plausible = road_m is not None and road_m <= self.speed.max_speed_mps * (time_s - key_time_s)
+            plausible = road_m is not None and road_m <= self.speed.max_speed_at(time_s) * (time_s - key_time_s)
             ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
             self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
                                          *((None, 0.0) if ratio is None else ratio), road_steps=key_steps)
