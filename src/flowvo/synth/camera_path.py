@@ -122,8 +122,8 @@ def generate_path(n_frames: int, seed: int, config: PathConfig | None = None) ->
 
 
 def levelled(T_world_cam: np.ndarray, prior_weight: float = 1e-3) -> np.ndarray:
-    """Camera-to-world poses (N, 4, 4) of a replayed drive turned about the first camera into a level world
-    frame, for building and rendering its world (whose road is built level across, y down).
+    """Camera-to-world poses (N, 4, 4) of a replayed drive turned about the world's origin into a level
+    world frame, for building and rendering its world (whose road is built level across, y down).
 
     A real drive's poses are given in its first camera's frame, tilted against gravity by the grade and
     roll where it started (KITTI 08: 4 degrees). "Down" is estimated as the direction the cameras' x axes
@@ -136,7 +136,7 @@ def levelled(T_world_cam: np.ndarray, prior_weight: float = 1e-3) -> np.ndarray:
     scatter = lateral.T @ lateral + prior_weight * len(lateral) * (np.eye(3) - np.outer(y_axis, y_axis))
     down = np.linalg.eigh(scatter)[1][:, 0]
     down *= np.sign(down[1])
-    axis = np.cross(down, y_axis)  # the rotation taking ``down`` onto the y axis
+    axis = np.cross(down, y_axis)  # the rotation taking ``down`` onto the y axis (Rodrigues)
     sine, cosine = float(np.linalg.norm(axis)), float(down @ y_axis)
     if sine < 1e-12:
         return T_world_cam.copy()

@@ -52,7 +52,7 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
             frames = frames_spanning(len(T), PATH_RATE_HZ, camera.fps)  # a short replay: all of it
         if len(T) < 2:
             raise FlowvoError(f"holds {len(T)} pose; a replayed sequence needs at least 2 frames", path)
-        T = levelled(T)  # its world is built level; the pose file keeps the replayed frame (first pose)
+        T = levelled(T)  # its world is built level; the pose file is written relative to the first camera
     else:
         T = generate_path(DEFAULT_FRAMES if frames is None else path_frames, world_seed,
                           PathConfig(max_speed_mps=max_speed_mps))
