@@ -57,11 +57,11 @@ class SpeedPrior:
     ``update(time_s, speed_mps)`` takes a measurement (None when the frame gave none) and returns the
     filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed).
     Measurements above :meth:`max_speed_at` are rejected as implausible: ``max_speed_mps``, and after a
-    standstill what a car can reach since (``RESTART_SPEED_MPS`` + 1 g times the time). Without new measurements the line is
-    followed for ``MAX_EXTRAPOLATION_S`` past the last one, then its speed there is held. A gap between
-    frames longer than ``horizon_s`` (a paused recording, dropped frames) restarts the prior: the speed
-    before it says nothing of the motion over it, so it is never extrapolated across (an hour's gap at
-    11.5 m/s made one 41 km step); the step over the gap is its own measurement, or none.
+    standstill what a car can reach since (``RESTART_SPEED_MPS`` + 1 g times the time). Without new
+    measurements the line is followed for ``MAX_EXTRAPOLATION_S`` past the last one, then its speed there
+    is held. A gap between frames longer than ``horizon_s`` (a paused recording, dropped frames) restarts
+    the prior: the speed before it says nothing of the motion over it, so it is never extrapolated across
+    (an hour's gap at 11.5 m/s made one 41 km step); the step over the gap is its own measurement, or none.
 
     The line runs through the last ``MIN_WINDOW`` measurements, or through as many as span ``window_s``
     seconds at the stream's frame rate when that is more (30 frames/s: 27), so a faster camera averages
