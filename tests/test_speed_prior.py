@@ -49,20 +49,27 @@ def test_no_measurement_yet_gives_none():
     assert SpeedPrior().update(0.0, None) is None
 
 
+def _pulled_away_then_measured(after_standstill: bool, speed_mps: float) -> float:
+    """The prior's speed at 0.7 s for ``speed_mps`` measured then, after pulling away at 3 m/s^2 from 0 s
+    (a standstill seen there, or a speed of 0 measured)."""
+    prior = SpeedPrior()
+    if after_standstill:
+        prior.stop(0.0)
+    else:
+        prior.update(0.0, 0.0)
+    for i in range(1, 7):
+        prior.update(0.1 * i, 3.0 * 0.1 * i)
+    return prior.update(0.7, speed_mps)
+
+
 def test_pulling_away_no_speed_beyond_what_1_g_reaches_since_the_standstill_is_taken():
     """A road plane ten times too far, 0.7 s after a standstill (synthetic drive 21): 39.8 m/s is refused
     and the speed follows the line of the measurements before it; a prior that saw no standstill takes it
     (Huber counts it, linearly)."""
-    assert SpeedPrior().max_speed_at(5.0) == SpeedPrior().max_speed_mps  # no standstill seen: the limit alone
-    for stopped in (True, False):
-        prior = SpeedPrior()
-        prior.stop(0.0) if stopped else prior.update(0.0, 0.0)
-        for i in range(1, 7):
-            prior.update(0.1 * i, 3.0 * 0.1 * i)  # pulling away at 3 m/s^2
-        speed = prior.update(0.7, 39.8)
-        assert (speed == pytest.approx(2.1, abs=1e-9)) if stopped else speed > 4.0
-    assert prior.max_speed_at(0.7) == prior.max_speed_mps
-    stopped = SpeedPrior()
-    stopped.stop(0.0)
-    assert stopped.max_speed_at(0.7) == pytest.approx(RESTART_SPEED_MPS + 9.81 * 0.7)
-    assert stopped.max_speed_at(10.0) == stopped.max_speed_mps  # long after: the speed limit again
+    assert _pulled_away_then_measured(True, 39.8) == pytest.approx(2.1, abs=1e-9)
+    assert _pulled_away_then_measured(False, 39.8) > 4.0
+    prior = SpeedPrior()
+    assert prior.max_speed_at(0.7) == prior.max_speed_mps  # no standstill seen: the speed limit alone
+    prior.stop(0.0)
+    assert prior.max_speed_at(0.7) == pytest.approx(RESTART_SPEED_MPS + 9.81 * 0.7)
+    assert prior.max_speed_at(10.0) == prior.max_speed_mps  # long after: the speed limit again

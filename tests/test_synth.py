@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from flowvo.cli import main
-from flowvo.geometry import planar_targets
+from flowvo.geometry import planar_targets, so3_exp
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.synth.camera_path import generate_path, levelled
 from flowvo.synth.dataset import sequence_seed, synthesize
@@ -132,8 +132,7 @@ def test_a_drive_that_never_turns_keeps_its_frame_about_the_lateral_axis():
     so only the roll is removed."""
     pitch, roll = np.radians(3.0), np.radians(2.0)
     pose = np.eye(4)
-    pose[:3, :3] = np.array([[1, 0, 0], [0, np.cos(pitch), -np.sin(pitch)], [0, np.sin(pitch), np.cos(pitch)]]) @ \
-        np.array([[np.cos(roll), -np.sin(roll), 0], [np.sin(roll), np.cos(roll), 0], [0, 0, 1]])
+    pose[:3, :3] = so3_exp(np.array([pitch, 0.0, 0.0])) @ so3_exp(np.array([0.0, 0.0, roll]))
     drive = np.repeat(pose[None], 20, axis=0)
     drive[:, :3, 3] = np.arange(20)[:, None] * pose[:3, 2]
     level = levelled(drive)
