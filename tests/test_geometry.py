@@ -90,3 +90,9 @@ def test_mirror_rule_for_planar_negates_heading_only():
     np.testing.assert_allclose(
         g.planar_targets(mirrored), g.mirror_targets(g.planar_targets(poses), "planar"), atol=1e-12
     )
+
+
+def test_skew_is_the_cross_product():
+    a, b = np.array([0.3, -1.2, 2.0]), np.array([-0.7, 0.4, 1.1])
+    np.testing.assert_allclose(g.skew(a) @ b, np.cross(a, b), atol=1e-15)
+    np.testing.assert_array_equal(g.skew(a), -g.skew(a).T)

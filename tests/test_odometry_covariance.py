@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm, logm
 
-from flowvo.geometry import chain_se3, invert_se3, so3_exp, so3_log
+from flowvo.geometry import chain_se3, invert_se3, skew, so3_exp, so3_log
 from flowvo.odometry_covariance import (
     DIRECTION_FLOOR_M,
     DIRECTION_SIGMA_RAD,
@@ -39,7 +39,7 @@ def hat(xi: np.ndarray) -> np.ndarray:
     """The 4x4 matrix of a twist ``(rho, phi)``: ``expm(hat(xi)) = exp(xi)``."""
     rho, phi = xi[:3], xi[3:]
     result = np.zeros((4, 4))
-    result[:3, :3] = [[0.0, -phi[2], phi[1]], [phi[2], 0.0, -phi[0]], [-phi[1], phi[0], 0.0]]
+    result[:3, :3] = skew(phi)
     result[:3, 3] = rho
     return result
 

@@ -102,6 +102,12 @@ def chain_se3(motions: np.ndarray, T_world_start: np.ndarray | None = None) -> n
     return poses
 
 
+def skew(vector: np.ndarray) -> np.ndarray:
+    """The 3x3 matrix of the cross product with ``vector`` (3,): ``skew(a) @ b == np.cross(a, b)``."""
+    x, y, z = vector
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
 def so3_exp(rotvec: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) from axis-angle vectors (..., 3), radians."""
     rotvec = np.asarray(rotvec, dtype=np.float64)

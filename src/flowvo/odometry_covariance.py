@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from flowvo.geometry import invert_se3, relative_motions
+from flowvo.geometry import invert_se3, relative_motions, skew
 from flowvo.scale_window import StepRecord
 
 # Per step (10 Hz), against the truth on the real clips (309 steps of 01, 06 and 07, the default method; the
@@ -56,10 +56,9 @@ def step_covariances(motions: np.ndarray, length_log_sigmas: np.ndarray, standst
 def adjoint(T: np.ndarray) -> np.ndarray:
     """The adjoint (6, 6) of a transform (4, 4) acting on ``(rho, phi)``: ``T exp(xi) T^-1 = exp(Ad xi)``."""
     R, t = T[:3, :3], T[:3, 3]
-    t_cross = np.array([[0.0, -t[2], t[1]], [t[2], 0.0, -t[0]], [-t[1], t[0], 0.0]])
     result = np.zeros((6, 6))
     result[:3, :3] = result[3:, 3:] = R
-    result[:3, 3:] = t_cross @ R
+    result[:3, 3:] = skew(t) @ R
     return result
 
 

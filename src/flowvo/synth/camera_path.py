@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.geometry import yaw_rotation
+from flowvo.geometry import skew, yaw_rotation
 
 FRAME_PERIOD_S = 0.1
 MAX_LATERAL_ACCEL_MPS2 = 3.0
@@ -141,7 +141,7 @@ def levelled(T_world_cam: np.ndarray, prior_weight: float = 1e-3) -> np.ndarray:
     if sine < 1e-12:
         return T_world_cam.copy()
     axis /= sine
-    cross = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    cross = skew(axis)
     rotation = np.eye(3) + sine * cross + (1.0 - cosine) * cross @ cross
     level = np.eye(4)
     level[:3, :3] = rotation
