@@ -65,6 +65,17 @@ def test_a_still_road_and_scene_is_a_standstill():
     np.testing.assert_array_equal(step.motion((0.0, 0.1), None, step_flow(step, 0.0, 0.0, False)), np.eye(4))
 
 
+def test_a_still_view_at_speed_keeps_the_last_motion_until_the_car_could_have_braked():
+    """12 m/s on a road, then images that stand still (past a crest only distant scenery is in view): the
+    car keeps its motion, and stands still once 1 g of braking could have stopped it."""
+    step = FlowGeometryStep(CAMERA, HW)
+    moving = step.motion((0.0, 0.1), None, step_flow(step, 1.2))
+    still = step_flow(step, 0.0, 0.0, False)
+    np.testing.assert_array_equal(step.motion((0.1, 0.2), None, still), moving)
+    np.testing.assert_array_equal(step.motion((0.9, 1.0), None, still), moving)  # 8.8 m/s of braking since 0.1 s
+    np.testing.assert_array_equal(step.motion((1.0, 1.1), None, still), np.eye(4))  # 9.8 m/s: down to 2.2
+
+
 def test_too_few_tracks_keep_the_last_motion():
     step = FlowGeometryStep(CAMERA, HW)
     first = step.motion((0.0, 0.1), None, step_flow(step, 1.0))

@@ -73,3 +73,20 @@ def test_pulling_away_no_speed_beyond_what_1_g_reaches_since_the_standstill_is_t
     prior.stop(0.0)
     assert prior.max_speed_at(0.7) == pytest.approx(RESTART_SPEED_MPS + 9.81 * 0.7)
     assert prior.max_speed_at(10.0) == prior.max_speed_mps  # long after: the speed limit again
+
+
+def test_a_car_at_speed_cannot_stand_still_sooner_than_1_g_of_braking_allows():
+    """Still images at 12 m/s (only distant scenery in view, past a crest) are no standstill until a car
+    braking at 1 g would be down to the restart speed; slow cars, stopped ones and unknown speeds can stand."""
+    prior = SpeedPrior()
+    assert prior.could_stand_at(0.0)  # nothing known
+    for i in range(10):
+        prior.update(0.1 * i, 12.0)
+    braked_s = 0.9 + (12.0 - RESTART_SPEED_MPS) / 9.81
+    assert not prior.could_stand_at(1.0) and not prior.could_stand_at(braked_s - 0.01)
+    assert prior.could_stand_at(braked_s + 0.01)
+    slow = SpeedPrior()
+    slow.update(0.0, 2.5)
+    assert slow.could_stand_at(0.1)
+    prior.stop(2.0)
+    assert prior.could_stand_at(2.1)

@@ -15,9 +15,9 @@ import numpy as np
 SPEED_WINDOW_S = 0.9  # the robust line's span: nine frames at KITTI's 10 Hz, where it was tuned
 MIN_WINDOW = 9  # measurements in the line at least (lower frame rates span more time, as tuned on 5-10 Hz)
 SPEED_HORIZON_S = 1.0  # the window's nine frames span 0.9 s at KITTI's 10 Hz; a longer gap ends the history
-MAX_ACCELERATION_MPS2 = 9.81  # no car's tyres accelerate it faster (1 g)
+MAX_ACCELERATION_MPS2 = 9.81  # no car's tyres accelerate or brake it faster (1 g)
 RESTART_SPEED_MPS = 3.0  # a car is called still until its flow passes a threshold: it may already be moving
-# this fast when the last standstill is seen (synthetic drive 21: 1.8 m/s)
+# this fast when the last standstill is seen (synthetic drive 21: 1.8 m/s), or still be when the first one is
 MAX_EXTRAPOLATION_S = 0.5  # the line is followed this far past its last measurement, then held: a trend read
 # off 0.9 s says nothing of the seconds after it (synthetic 10, a car braking for 2.5 s without a trusted road:
 # the line's acceleration extrapolated to 5.5 m per step where the car made 0.4)
@@ -55,7 +55,8 @@ class SpeedPrior:
     """Filters per-frame speed measurements (m/s) into a smooth, outlier-free speed.
 
     ``update(time_s, speed_mps)`` takes a measurement (None when the frame gave none) and returns the
-    filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed).
+    filtered speed at ``time_s``; ``stop()`` marks a standstill (the history restarts from zero speed);
+    :meth:`could_stand_at` tells whether a car at the last filtered speed can have braked to one.
     Measurements above :meth:`max_speed_at` are rejected as implausible: ``max_speed_mps``, and after a
     standstill what a car can reach since (``RESTART_SPEED_MPS`` + 1 g times the time). Without new
     measurements the line is followed for ``MAX_EXTRAPOLATION_S`` past the last one, then its speed there
@@ -78,6 +79,7 @@ class SpeedPrior:
         self._last_time_s: float | None = None
         self._intervals_s: deque[float] = deque(maxlen=15)
         self._stopped_s: float | None = None  # the last standstill seen
+        self._speed: tuple[float, float] | None = None  # the last filtered speed: (time s, m/s)
 
     def max_speed_at(self, time_s: float) -> float:
         """The highest plausible speed (m/s) at ``time_s``: ``max_speed_mps``, or less soon after a
@@ -87,8 +89,22 @@ class SpeedPrior:
             return self.max_speed_mps
         return min(self.max_speed_mps, RESTART_SPEED_MPS + MAX_ACCELERATION_MPS2 * (time_s - self._stopped_s))
 
+    def could_stand_at(self, time_s: float) -> bool:
+        """Whether a car at the last filtered speed can stand still at ``time_s``: braking at 1 g, it is
+        down to ``RESTART_SPEED_MPS`` by then (images with only distant scenery move as little as a standing
+        car's: past a crest at 12 m/s, synthetic)."""
+        if self._speed is None:
+            return True
+        speed_time_s, speed_mps = self._speed
+        return speed_mps - MAX_ACCELERATION_MPS2 * (time_s - speed_time_s) <= RESTART_SPEED_MPS
+
     def update(self, time_s: float, speed_mps: float | None) -> float | None:
         """The filtered speed (m/s) at ``time_s``, or None while there is no measurement at all."""
+        speed = self._filtered(time_s, speed_mps)
+        self._speed = None if speed is None else (time_s, speed)
+        return speed
+
+    def _filtered(self, time_s: float, speed_mps: float | None) -> float | None:
         plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_at(time_s)
         gap = self._last_time_s is not None and time_s - self._last_time_s > self.horizon_s
         if self._last_time_s is not None and not gap:
@@ -118,3 +134,4 @@ class SpeedPrior:
         self._history.clear()
         self._history.append((time_s, 0.0))
         self._last_time_s = self._stopped_s = time_s
+        self._speed = (time_s, 0.0)

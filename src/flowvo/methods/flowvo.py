@@ -266,12 +266,15 @@ class FlowGeometryStep(WorkingFrames):
         key_time_s = times_s[0] if key_is_previous else self._key_time_s
         key_steps = 1 if key_is_previous else self._key_steps + 1
         self._road_key, self._road_prediction = None, None  # by default the next step starts from this frame
-        if road_moved_px / key_steps < self.still_flow_px and (not len(moved_px) or
-                                                               np.median(moved_px) < self.still_flow_px):
+        still = road_moved_px / key_steps < self.still_flow_px and (not len(moved_px) or
+                                                                  np.median(moved_px) < self.still_flow_px)
+        if still and self.speed.could_stand_at(time_s):
             self.speed.stop(time_s)  # the road and the scene stand still (distant points alone can mislead)
             self.last_motion = np.eye(4)
             return self.last_motion
-        fit = essential_motion(flow.motion_prev, flow.motion_next, self.K, threshold_px=self.threshold_px)
+        # a car too fast to have stopped, with only distant scenery in view, is degenerate too
+        fit = None if still else essential_motion(flow.motion_prev, flow.motion_next, self.K,
+                                                  threshold_px=self.threshold_px)
         if fit is None:  # degenerate: keep the last motion (constant velocity)
             self.road_normal.forget()
             T_next_prev = invert_se3(self.last_motion)
