@@ -88,5 +88,11 @@ def test_a_car_at_speed_cannot_stand_still_sooner_than_1_g_of_braking_allows():
     slow = SpeedPrior()
     slow.update(0.0, 2.5)
     assert slow.could_stand_at(0.1)
+    held = SpeedPrior()  # 12 m/s measured until 0.9 s, then held until 1.9 s: braking runs from the held speed
+    for i in range(10):
+        held.update(0.1 * i, 12.0)
+    speeds = [held.update(0.1 * i, None) for i in range(10, 20)]
+    assert min(speeds) > 11.0 and not held.could_stand_at(braked_s + 0.01)
+    assert held.could_stand_at(1.9 + (12.0 - RESTART_SPEED_MPS) / 9.81 + 0.01)
     prior.stop(2.0)
     assert prior.could_stand_at(2.1)

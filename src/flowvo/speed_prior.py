@@ -92,7 +92,8 @@ class SpeedPrior:
     def could_stand_at(self, time_s: float) -> bool:
         """Whether a car at the last filtered speed can stand still at ``time_s``: braking at 1 g, it is
         down to ``RESTART_SPEED_MPS`` by then (images with only distant scenery move as little as a standing
-        car's: past a crest at 12 m/s, synthetic)."""
+        car's: past a crest at 12 m/s, synthetic). The speed is the one the prior last gave, held or
+        measured: the method does not stop a car it still takes to be fast."""
         if self._speed is None:
             return True
         speed_time_s, speed_mps = self._speed

@@ -5,9 +5,10 @@ Rotation and translation direction come from an essential matrix fitted to textu
 the whole frame (pyramidal Lucas-Kanade); the metric step length from the road plane, triangulated from
 the dense DIS flow of the road ahead at the working resolution and the camera height
 (:mod:`flowvo.road_scale`), filtered by a smooth-speed prior (:mod:`flowvo.speed_prior`); standstill when
-the road and the scene move less than half a pixel. Where no trustworthy road plane has been seen for a
-while, the packaged network's distance stands in (``flowvo``; ``flowvo-geometry`` has no network). Lens
-distortion is removed from the tracked and road points, not from whole frames. No ground truth enters it.
+the road and the scene move less than half a pixel and braking at 1 g could have stopped the car. Where
+no trustworthy road plane has been seen for a while, the packaged network's distance stands in
+(``flowvo``; ``flowvo-geometry`` has no network). Lens distortion is removed from the tracked and road
+points, not from whole frames. No ground truth enters it.
 
 ``flowvo`` and ``flowvo-geometry`` refine the step lengths in a window stage (:mod:`flowvo.scale_window`):
 each step also measures the ratio of its length to the last one from points tracked over three frames
