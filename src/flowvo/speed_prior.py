@@ -106,6 +106,7 @@ class SpeedPrior:
         return speed
 
     def _filtered(self, time_s: float, speed_mps: float | None) -> float | None:
+        """:meth:`update`'s filtered speed, before it is remembered for :meth:`could_stand_at`."""
         plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_at(time_s)
         gap = self._last_time_s is not None and time_s - self._last_time_s > self.horizon_s
         if self._last_time_s is not None and not gap:
