@@ -141,7 +141,8 @@ def levelled(T_world_cam: np.ndarray, prior_weight: float = 1e-3) -> np.ndarray:
     if sine < 1e-12:
         return T_world_cam.copy()
     axis /= sine
-    cross = skew(axis)
+    cross = skew(axis)  # Rodrigues written out, not so3_exp(axis * angle): that differs in the last bits, and the
+    # spec digests that decide whether rendered frames on disk are reused hash these poses exactly
     rotation = np.eye(3) + sine * cross + (1.0 - cosine) * cross @ cross
     level = np.eye(4)
     level[:3, :3] = rotation

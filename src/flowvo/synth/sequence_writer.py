@@ -123,8 +123,8 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
     poses = spec.frame_poses()
     write_text_atomic(directory / "calib.txt", format_calibration(kitti_calibration(K, camera)))
     write_text_atomic(directory / "times.txt", "".join(f"{i / camera.fps:.6e}\n" for i in range(len(poses))))
-    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(invert_se3(poses[0]) @ poses))  # as
-    # KITTI's: relative to the first camera
+    relative_to_first = invert_se3(poses[0]) @ poses  # as KITTI's pose files are
+    write_kitti_poses(root / "poses" / f"{name}.txt", Trajectory.from_poses(relative_to_first))
     write_json_atomic(directory / "synthetic.json", {
         "synthetic": True, "seed": spec.seed, "scene": spec.scene or "varied", "scale": spec.scale,
         "frames": len(poses), "generator": "flowvo synth", "spec_sha256": spec_digest(spec),
