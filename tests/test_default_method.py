@@ -32,12 +32,13 @@ def project(K, points):
     return (pixels[:, :2] / pixels[:, 2:]).astype(np.float32)
 
 
-def step_flow(step, step_m, yaw_rad=0.01, scene_moves=True):
-    """Exact tracks and road correspondences of a car moving ``step_m`` forward while turning."""
+def step_flow(step, step_m, yaw_rad=0.01, scene_moves=True, direction=(0.0, 0.0, 1.0)):
+    """Exact tracks and road correspondences of a camera moving ``step_m`` along ``direction`` (its own frame;
+    a car: forward) while turning."""
     rng = np.random.default_rng(5)
     scene = np.c_[rng.uniform(-15, 15, 300), rng.uniform(-5, 1.0, 300), rng.uniform(8, 50, 300)]
     R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
-    t = -R @ np.array([0.0, 0.0, step_m])
+    t = -R @ (step_m * np.asarray(direction))
     rays = np.c_[step.road_px_undistorted, np.ones(len(step.road_px))] @ np.linalg.inv(step.K).T
     road = rays * (step.camera_height_m / rays[:, 1:2])  # the grid's rays hit the road plane y = height
     frame = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
@@ -74,6 +75,20 @@ def test_a_still_view_at_speed_keeps_the_last_motion_until_the_car_could_have_br
     np.testing.assert_array_equal(step.motion((0.1, 0.2), None, still), moving)
     np.testing.assert_array_equal(step.motion((0.9, 1.0), None, still), moving)  # 8.8 m/s of braking since 0.1 s
     np.testing.assert_array_equal(step.motion((1.0, 1.1), None, still), np.eye(4))  # 9.8 m/s: down to 2.2
+
+
+@pytest.mark.parametrize(("step_m", "kept"), [(1.0, True), (0.3, False)])
+def test_at_speed_a_fitted_direction_no_car_can_take_gives_way_to_the_last_one(step_m, kept):
+    """A step forward, then tracks that move as if the camera had slid sideways: at 10 m/s the rotation is
+    taken and the direction of travel stays the last one; at 3 m/s (a camera swinging in a slow turn) the
+    fit's direction is taken."""
+    step = FlowGeometryStep(CAMERA, HW)
+    step.motion((0.0, 0.1), None, step_flow(step, step_m))
+    sideways = step.motion((0.1, 0.2), None, step_flow(step, step_m, yaw_rad=0.02, direction=(1.0, 0.0, 0.0)))
+    travel = sideways[:3, 3] / np.linalg.norm(sideways[:3, 3])
+    np.testing.assert_allclose(travel, [0.0, 0.0, 1.0] if kept else [1.0, 0.0, 0.0], atol=1e-4)
+    np.testing.assert_allclose(sideways[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-4)
+    assert step.summary()["direction_kept_steps"] == kept
 
 
 def test_too_few_tracks_keep_the_last_motion():

@@ -99,6 +99,11 @@ class SpeedPrior:
         speed_time_s, speed_mps = self._speed
         return speed_mps - MAX_ACCELERATION_MPS2 * (time_s - speed_time_s) <= RESTART_SPEED_MPS
 
+    @property
+    def last_speed_mps(self) -> float | None:
+        """The speed the prior last gave (m/s; 0 after a standstill), or None before any."""
+        return None if self._speed is None else self._speed[1]
+
     def update(self, time_s: float, speed_mps: float | None) -> float | None:
         """The filtered speed (m/s) at ``time_s``, or None while there is no measurement at all."""
         speed = self._filtered(time_s, speed_mps)

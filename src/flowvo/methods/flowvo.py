@@ -45,6 +45,7 @@ from flowvo.road_scale import (
 from flowvo.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.speed_prior import SpeedPrior
+from flowvo.travel_direction import TravelDirection
 from flowvo.two_view import (
     EssentialMotion,
     essential_motion,
@@ -159,6 +160,8 @@ class FlowGeometryStep(WorkingFrames):
         self.still_flow_px = STILL_FLOW_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.speed = SpeedPrior()
+        forward = np.array([0.0, 0.0, 1.0])  # along the road: a pitched camera's is turned by its pitch
+        self.travel = TravelDirection(forward if self.levelling is None else self.levelling.T @ forward)
         self.road_normal = RoadNormal()
         self.last_motion = np.eye(4)
         # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios
@@ -283,6 +286,7 @@ class FlowGeometryStep(WorkingFrames):
             self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
                                          dt_s)
             return self.last_motion
+        t_dir = self._travel_checked(fit)
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
         self.road_normal.advance(fit.R, dt_s)
@@ -308,14 +312,22 @@ class FlowGeometryStep(WorkingFrames):
             # alone would drift
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
-        self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
+        self.last_motion = invert_se3(se3_next_prev(fit.R, t_dir * step_m))
         if self.window is not None:
             plausible = road_m is not None and road_m <= self.speed.max_speed_at(time_s) * (time_s - key_time_s)
             ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
-            self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
+            self._step_scale = StepScale(fit.R, t_dir, step_m, dt_s, road_m if plausible else None, network_m,
                                          *((None, 0.0) if ratio is None else ratio), road_steps=key_steps)
             self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
+
+    def _travel_checked(self, fit: EssentialMotion) -> np.ndarray:
+        """The step's unit translation (``t_dir`` of ``T_next_prev``): the fit's, or the last direction of travel
+        taken at speed where the fit's lies further off the forward axis than a fast car's can
+        (:mod:`flowvo.travel_direction`). The road and the ratios are measured on the fit as it came."""
+        direction = -fit.R.T @ fit.t_dir  # of travel, in the first frame of the step
+        taken = self.travel.checked(direction, self.speed.last_speed_mps)
+        return fit.t_dir if taken is direction else -fit.R @ taken
 
     def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
                       fit: EssentialMotion) -> LengthRatio | None:
@@ -350,11 +362,13 @@ class FlowGeometryStep(WorkingFrames):
 
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
-        planes fared (:class:`RoadPlaneTally`), the window's latency (frames: how late each motion is final),
-        how many steps each kind of measurement reached, the median standard deviation of a step's log
-        length and how many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
+        planes fared (:class:`RoadPlaneTally`), how many steps at speed took the last direction of travel
+        instead of the fit's (:mod:`flowvo.travel_direction`), the window's latency (frames: how late each
+        motion is final), how many steps each kind of measurement reached, the median standard deviation of a
+        step's log length and how many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_tally.record()
+        kept["direction_kept_steps"] = self.travel.kept_steps
         if self.window is not None:
             records = self.window.records
             sigmas = [record.log_sigma for record in records if record.log_sigma is not None]
