@@ -20,10 +20,10 @@ import numpy as np
 from flowvo.camera import undistort_points
 from flowvo.drive import RunOptions, open_drive
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.methods.base import REFERENCE_WIDTH_PX, WorkingFrames
-from flowvo.methods.flowvo import DEFAULT_WORKING_WIDTH, ESSENTIAL_THRESHOLD_PX, TRACK_WINDOW_PX
+from flowvo.methods.base import REFERENCE_WIDTH_PX
+from flowvo.methods.flowvo import FlowGeometryStep
 from flowvo.steps_csv import read_steps_csv
-from flowvo.two_view import essential_motion, lucas_kanade, textured_points, translation_parallax_px
+from flowvo.two_view import essential_motion, translation_parallax_px
 
 BANDS_PX = ((0.0, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, np.inf))
 
@@ -35,20 +35,21 @@ def step_lengths(poses_path: Path) -> np.ndarray:
 
 
 def parallax_px(data: str, sequence: str, frames: list[int]) -> np.ndarray:
-    """The translation parallax (pixels at the reference width) of the steps ending at ``frames``."""
+    """The translation parallax (pixels at the reference width) of the steps ending at ``frames``: each pair's
+    tracks as the default method prepares them, and its essential fit."""
     drive = open_drive(RunOptions(out="", data=data, sequence=sequence))
-    working = WorkingFrames(drive.camera, drive.source.image_size_hw, DEFAULT_WORKING_WIDTH)
-    to_reference = REFERENCE_WIDTH_PX / working.working_hw[1]
+    step = FlowGeometryStep(drive.camera, drive.source.image_size_hw)
+    to_reference = REFERENCE_WIDTH_PX / step.working_hw[1]
     images = sorted((Path(data) / "sequences" / sequence / "image_0").glob("*.png"))
     values = []
     for frame in frames:
-        before, after = (working.prepare(cv2.imread(str(images[k]), cv2.IMREAD_GRAYSCALE)) for k in (frame - 1, frame))
-        start = textured_points(before)
-        moved, found = lucas_kanade(before, after, start, TRACK_WINDOW_PX)
-        before_px, after_px = (undistort_points(p[found], working.K, drive.camera.distortion) for p in (start, moved))
-        fit = essential_motion(before_px, after_px, working.K, threshold_px=ESSENTIAL_THRESHOLD_PX / to_reference)
+        step.prepare(cv2.imread(str(images[frame - 1]), cv2.IMREAD_GRAYSCALE))
+        current = step.prepare(cv2.imread(str(images[frame]), cv2.IMREAD_GRAYSCALE))
+        before_px, after_px = (undistort_points(p, step.K, step.camera.distortion)
+                               for p in (current.tracked_prev, current.tracked_next))
+        fit = essential_motion(before_px, after_px, step.K, threshold_px=step.threshold_px)
         values.append(np.nan if fit is None else to_reference * float(np.median(
-            translation_parallax_px(before_px[fit.inliers], after_px[fit.inliers], working.K, fit.R))))
+            translation_parallax_px(before_px[fit.inliers], after_px[fit.inliers], step.K, fit.R))))
     return np.asarray(values)
 
 
