@@ -79,16 +79,33 @@ def test_a_still_view_at_speed_keeps_the_last_motion_until_the_car_could_have_br
 
 @pytest.mark.parametrize(("step_m", "kept"), [(1.0, True), (0.3, False)])
 def test_at_speed_a_fitted_direction_no_car_can_take_gives_way_to_the_last_one(step_m, kept):
-    """A step forward, then tracks that move as if the camera had slid sideways: at 10 m/s the rotation is
-    taken and the direction of travel stays the last one; at 3 m/s (a camera swinging in a slow turn) the
-    fit's direction is taken."""
+    """A step forward, then tracks that move as if the camera had slid sideways: at 10 m/s the direction of
+    travel stays the last one; at 3 m/s (a camera swinging in a slow turn) the fit's motion is taken."""
     step = FlowGeometryStep(CAMERA, HW)
     step.motion((0.0, 0.1), None, step_flow(step, step_m))
     sideways = step.motion((0.1, 0.2), None, step_flow(step, step_m, yaw_rad=0.02, direction=(1.0, 0.0, 0.0)))
     travel = sideways[:3, 3] / np.linalg.norm(sideways[:3, 3])
     np.testing.assert_allclose(travel, [0.0, 0.0, 1.0] if kept else [1.0, 0.0, 0.0], atol=1e-4)
-    np.testing.assert_allclose(sideways[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-4)
+    if not kept:
+        np.testing.assert_allclose(sideways[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-4)
     assert step.summary()["direction_kept_steps"] == kept
+
+
+def test_a_refused_direction_takes_the_rotation_the_tracks_give_along_the_last_direction(monkeypatch):
+    """At 10 m/s the fit of a forward step turning 0.02 rad comes back sideways with its rotation 1.7 degrees
+    off (as past a crest): the step goes forward, with the rotation the tracks give along that direction."""
+    step = FlowGeometryStep(CAMERA, HW)
+    step.motion((0.0, 0.1), None, step_flow(step, 1.0))
+    wrong_R = so3_exp(np.array([0.0, 0.05, 0.0]))
+
+    def sideways_fit(points_prev, points_next, K, threshold_px):
+        return EssentialMotion(wrong_R, -wrong_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
+
+    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
+    turned = step.motion((0.1, 0.2), None, step_flow(step, 1.0, yaw_rad=0.02))
+    np.testing.assert_allclose(turned[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-6)  # float32 tracks
+    np.testing.assert_allclose(turned[:3, 3] / np.linalg.norm(turned[:3, 3]), [0.0, 0.0, 1.0], atol=1e-6)
+    assert step.summary()["direction_kept_steps"] == 1
 
 
 def test_too_few_tracks_keep_the_last_motion():

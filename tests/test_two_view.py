@@ -12,7 +12,14 @@ from flowvo.road_scale import (
     road_step_length_m,
     trusted_road_plane,
 )
-from flowvo.two_view import EssentialMotion, essential_motion, no_image_area, textured_points, triangulate
+from flowvo.two_view import (
+    EssentialMotion,
+    essential_motion,
+    motion_along,
+    no_image_area,
+    textured_points,
+    triangulate,
+)
 
 K = np.array([[350.0, 0.0, 300.0], [0.0, 350.0, 92.0], [0.0, 0.0, 1.0]])
 HEIGHT_M = 1.65
@@ -49,6 +56,35 @@ def test_essential_motion_takes_the_intrinsics_as_a_view_of_a_projection_matrix(
     fit = essential_motion(project(scene), project(scene @ R.T + t), projection[:, :3], threshold_px=0.25)
     assert fit is not None
     np.testing.assert_allclose(fit.R, R, atol=1e-6)
+
+
+def test_motion_along_a_known_direction_recovers_the_rotation_exactly():
+    scene, _, R, t = scene_and_motion()
+    direction = -R.T @ t / np.linalg.norm(t)  # of travel, first camera's frame
+    start = so3_exp(np.array([0.01, -0.03, 0.005])) @ R  # 1.8 degrees of yaw off, as a sideways fit's
+    motion = motion_along(project(scene), project(scene @ R.T + t), K, direction, start, threshold_px=0.25)
+    assert motion is not None and motion.inliers.all()
+    np.testing.assert_allclose(motion.R, R, atol=1e-9)
+    np.testing.assert_allclose(motion.t_dir, t / np.linalg.norm(t), atol=1e-9)
+
+
+def test_motion_along_a_known_direction_rejects_outliers():
+    scene, _, R, t = scene_and_motion()
+    moved = project(scene @ R.T + t)
+    rng = np.random.default_rng(0)
+    outlier = rng.random(len(moved)) < 0.25
+    moved[outlier] += rng.uniform(-15.0, 15.0, (outlier.sum(), 2))
+    start = so3_exp(np.array([0.01, -0.03, 0.005])) @ R
+    motion = motion_along(project(scene), moved, K, -R.T @ t / np.linalg.norm(t), start, threshold_px=0.25)
+    assert motion is not None
+    assert motion.inliers[~outlier].all() and motion.inliers[outlier].mean() < 0.05  # a few land on their line
+    np.testing.assert_allclose(motion.R, R, atol=2e-5)
+
+
+def test_motion_along_needs_enough_inliers():
+    scene, _, R, t = scene_and_motion()
+    assert motion_along(project(scene[:20]), project(scene[:20] @ R.T + t), K, np.array([0.0, 0.0, 1.0]), R,
+                        threshold_px=0.25) is None
 
 
 def test_triangulation_returns_points_in_step_units():

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
 
 def textured_points(image: np.ndarray, count: int = 600, cell_px: int = 8) -> np.ndarray:
@@ -120,6 +122,41 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
         if count > best_count:
             best, best_count = candidate, count
     return best if best_count >= min_inliers else None
+
+
+def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, direction: np.ndarray,
+                 R_start: np.ndarray, threshold_px: float = 0.5, min_inliers: int = 30) -> EssentialMotion | None:
+    """The motion with a given direction of travel ``direction`` (unit, first camera's frame) that best explains
+    correspondences (N, 2): its rotation ``R_next_prev`` fitted from ``R_start`` with a Cauchy loss at
+    ``threshold_px`` of each point's distance to its epipolar line in the second image, pixels, then by least
+    squares on the inliers (within ``threshold_px``). None when fewer than ``min_inliers`` remain.
+
+    With ``t = -R d`` the essential matrix is ``[t]x R = -R [d]x``, so a point's epipolar line in the second
+    image is ``K^-T R (d x r1)``.
+    """
+    if len(points_prev) < min_inliers:
+        return None
+    normals = np.cross(direction, _rays(points_prev, K))  # of the epipolar planes, first camera's frame
+    next_px = np.ones((len(points_next), 3))
+    next_px[:, :2] = points_next
+    inverse_K = _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
+
+    def distances_px(rotation: np.ndarray) -> np.ndarray:
+        lines = normals @ rotation.T @ inverse_K  # (N, 3) in the second image's pixels
+        return np.einsum("ij,ij->i", lines, next_px) / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12)
+
+    def rotation_of(update: np.ndarray) -> np.ndarray:
+        return Rotation.from_rotvec(update).as_matrix() @ R_start
+
+    robust = least_squares(lambda update: distances_px(rotation_of(update)), np.zeros(3), loss="cauchy",
+                           f_scale=threshold_px)
+    inliers = np.abs(distances_px(rotation_of(robust.x))) <= threshold_px
+    if inliers.sum() < min_inliers:
+        return None
+    polished = least_squares(lambda update: distances_px(rotation_of(update))[inliers], robust.x)  # the inliers
+    # alone, unweighted: the outliers' Cauchy weights still pull a little
+    R = rotation_of(polished.x)
+    return EssentialMotion(R, -R @ direction, inliers)
 
 
 def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:

@@ -52,6 +52,7 @@ from flowvo.two_view import (
     essential_motion,
     follow_flow,
     lucas_kanade,
+    motion_along,
     se3_next_prev,
     textured_points,
     track_points,
@@ -287,7 +288,7 @@ class FlowGeometryStep(WorkingFrames):
             self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
                                          dt_s)
             return self.last_motion
-        t_dir = self._travel_checked(fit)
+        fit = self._travel_checked(fit, flow)
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
         self.road_normal.advance(fit.R, dt_s)
@@ -313,22 +314,26 @@ class FlowGeometryStep(WorkingFrames):
             # alone would drift
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
-        self.last_motion = invert_se3(se3_next_prev(fit.R, t_dir * step_m))
+        self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
         if self.window is not None:
             plausible = road_m is not None and road_m <= self.speed.max_speed_at(time_s) * (time_s - key_time_s)
             ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
-            self._step_scale = StepScale(fit.R, t_dir, step_m, dt_s, road_m if plausible else None, network_m,
+            self._step_scale = StepScale(fit.R, fit.t_dir, step_m, dt_s, road_m if plausible else None, network_m,
                                          *((None, 0.0) if ratio is None else ratio), road_steps=key_steps)
             self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
 
-    def _travel_checked(self, fit: EssentialMotion) -> np.ndarray:
-        """The step's unit translation (``t_dir`` of ``T_next_prev``): the fit's, or the last direction of travel
-        taken at speed where the fit's lies further off the forward axis than a fast car's can
-        (:mod:`flowvo.travel_direction`). The road and the ratios are measured on the fit as it came."""
+    def _travel_checked(self, fit: EssentialMotion, flow: GeometryFlow) -> EssentialMotion:
+        """The step's motion up to scale: the fit, or, where its direction of travel lies further off the forward
+        axis than a fast car's can (:mod:`flowvo.travel_direction`), the motion along the last direction taken
+        at speed with its rotation fitted again to the tracks (:func:`motion_along`: the fit's rotation came
+        with its wrong direction; kept where the refit fails)."""
         direction = -fit.R.T @ fit.t_dir  # of travel, in the first frame of the step
         taken = self.travel.checked(direction, self.speed.last_speed_mps)
-        return fit.t_dir if taken is direction else -fit.R @ taken
+        if taken is direction:
+            return fit
+        along = motion_along(flow.motion_prev, flow.motion_next, self.K, taken, fit.R, self.threshold_px)
+        return along if along is not None else EssentialMotion(fit.R, -fit.R @ taken, fit.inliers)
 
     def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
                       fit: EssentialMotion) -> LengthRatio | None:
