@@ -81,6 +81,15 @@ def test_motion_along_a_known_direction_rejects_outliers():
     np.testing.assert_allclose(motion.R, R, atol=2e-5)
 
 
+def test_motion_along_leaves_tracks_without_a_position_out():
+    scene, _, R, t = scene_and_motion()
+    moved = project(scene @ R.T + t)
+    moved[:5] = np.nan  # as a lens model may give far outside its image
+    motion = motion_along(project(scene), moved, K, -R.T @ t / np.linalg.norm(t), R, threshold_px=0.25)
+    assert motion is not None and not motion.inliers[:5].any() and motion.inliers[5:].all()
+    np.testing.assert_allclose(motion.R, R, atol=1e-9)
+
+
 def test_motion_along_needs_enough_inliers():
     scene, _, R, t = scene_and_motion()
     assert motion_along(project(scene[:20]), project(scene[:20] @ R.T + t), K, np.array([0.0, 0.0, 1.0]), R,

@@ -129,12 +129,14 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     """The motion with a given direction of travel ``direction`` (unit, first camera's frame) that best explains
     correspondences (N, 2): its rotation ``R_next_prev`` fitted from ``R_start`` with a Cauchy loss at
     ``threshold_px`` of each point's distance to its epipolar line in the second image, pixels, then by least
-    squares on the inliers (within ``threshold_px``). None when fewer than ``min_inliers`` remain.
+    squares on the inliers (within ``threshold_px``; tracks with a non-finite position are none). None when
+    fewer than ``min_inliers`` remain.
 
     With ``t = -R d`` the essential matrix is ``[t]x R = -R [d]x``, so a point's epipolar line in the second
     image is ``K^-T R (d x r1)``.
     """
-    if len(points_prev) < min_inliers:
+    usable = np.isfinite(points_prev).all(axis=1) & np.isfinite(points_next).all(axis=1)
+    if usable.sum() < min_inliers:
         return None
     normals = np.cross(direction, _rays(points_prev, K))  # of the epipolar planes, first camera's frame
     next_px = np.ones((len(points_next), 3))
@@ -148,9 +150,9 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     def rotation_of(update: np.ndarray) -> np.ndarray:
         return Rotation.from_rotvec(update).as_matrix() @ R_start
 
-    robust = least_squares(lambda update: distances_px(rotation_of(update)), np.zeros(3), loss="cauchy",
+    robust = least_squares(lambda update: distances_px(rotation_of(update))[usable], np.zeros(3), loss="cauchy",
                            f_scale=threshold_px)
-    inliers = np.abs(distances_px(rotation_of(robust.x))) <= threshold_px
+    inliers = usable & (np.abs(distances_px(rotation_of(robust.x))) <= threshold_px)
     if inliers.sum() < min_inliers:
         return None
     polished = least_squares(lambda update: distances_px(rotation_of(update))[inliers], robust.x)  # the inliers
