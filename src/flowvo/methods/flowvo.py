@@ -3,8 +3,9 @@ the network where it is not.
 
 Rotation and translation direction come from an essential matrix fitted to textured points tracked over
 the whole frame (pyramidal Lucas-Kanade), a fast car's direction checked against the camera's forward axis
-(:mod:`flowvo.travel_direction`; a refused step's rotation fitted again along the direction taken); the metric step length from the road plane, triangulated from
-the dense DIS flow of the road ahead at the working resolution and the camera height
+(:mod:`flowvo.travel_direction`; a refused step's rotation fitted again along the direction taken); the
+metric step length from the road plane, triangulated from the dense DIS flow of the road ahead at the
+working resolution and the camera height
 (:mod:`flowvo.road_scale`), filtered by a smooth-speed prior (:mod:`flowvo.speed_prior`); standstill when
 the road and the scene move less than half a pixel and braking at 1 g could have stopped the car. Where
 no trustworthy road plane has been seen for a while, the packaged network's distance stands in
