@@ -1,6 +1,7 @@
 """The default method's branches on exact correspondences: road scale, standstill, degenerate geometry, the
 network fallback, the road key frame; and its policies (fallback after a second, speed window in seconds)."""
 
+import dataclasses
 from types import SimpleNamespace
 
 import cv2
@@ -106,6 +107,24 @@ def test_a_refused_direction_takes_the_rotation_the_tracks_give_along_the_last_d
     np.testing.assert_allclose(turned[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-6)  # float32 tracks
     np.testing.assert_allclose(turned[:3, 3] / np.linalg.norm(turned[:3, 3]), [0.0, 0.0, 1.0], atol=1e-6)
     assert step.summary()["direction_kept_steps"] == 1
+
+
+def test_a_refused_direction_keeps_the_fits_rotation_where_no_rotation_along_the_last_direction_fits(monkeypatch):
+    """At 10 m/s a sideways fit of tracks that no motion explains (each moved at random): the step goes
+    forward with the fit's rotation."""
+    step = FlowGeometryStep(CAMERA, HW)
+    step.motion((0.0, 0.1), None, step_flow(step, 1.0))
+    wrong_R = so3_exp(np.array([0.0, 0.05, 0.0]))
+
+    def sideways_fit(points_prev, points_next, K, threshold_px):
+        return EssentialMotion(wrong_R, -wrong_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
+
+    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
+    flow = step_flow(step, 1.0)
+    scattered = flow.motion_prev + np.random.default_rng(0).uniform(-20, 20, flow.motion_prev.shape).astype(np.float32)
+    kept = step.motion((0.1, 0.2), None, dataclasses.replace(flow, motion_next=scattered))
+    np.testing.assert_allclose(kept[:3, :3], wrong_R.T, atol=1e-12)
+    np.testing.assert_allclose(kept[:3, 3] / np.linalg.norm(kept[:3, 3]), [0.0, 0.0, 1.0], atol=1e-9)
 
 
 def test_too_few_tracks_keep_the_last_motion():
