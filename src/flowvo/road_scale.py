@@ -260,6 +260,17 @@ def road_homography(K: np.ndarray, motion: EssentialMotion, plane: RoadPlane) ->
     return K @ (motion.R + np.outer(motion.t_dir, plane.normal) / plane.distance) @ np.linalg.inv(K)
 
 
+def onward_road_homography(K: np.ndarray, plane: RoadPlane, key_motion: EssentialMotion, key_length_m: float,
+                           step_motion: EssentialMotion, step_length_m: float, height_m: float) -> np.ndarray:
+    """The road homography from a road key frame to the frame after the current one (ideal pinhole pixels), at
+    constant velocity: the motion from the key frame to the current frame (``key_motion``, ``key_length_m``
+    metres), then the current step (``step_motion``, ``step_length_m``) once more. ``plane`` is the key frame's
+    road (its normal; the road lies ``height_m`` metres below the key frame's camera)."""
+    R = step_motion.R @ key_motion.R
+    t_m = step_motion.R @ key_motion.t_dir * key_length_m + step_motion.t_dir * step_length_m
+    return K @ (R + np.outer(t_m, plane.normal) / height_m) @ np.linalg.inv(K)
+
+
 MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before their pitch says anything of the mounting
 
 
