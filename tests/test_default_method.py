@@ -16,6 +16,7 @@ from flowvo.road_scale import (
     NetworkFallbackPolicy,
     RoadNormal,
     RoadPlane,
+    onward_road_homography,
     road_homography,
     trusted_road_plane,
 )
@@ -159,6 +160,33 @@ def test_a_slowly_moving_road_keeps_its_key_frame_and_scales_the_step_by_time():
     fast = step_flow(step, 1.0)
     step.motion((0.1, 0.2), previous, fast)
     assert step._road_key is None  # the road moved enough: the next step starts from this frame
+
+
+@pytest.mark.parametrize(("dt_s", "predicted"), [(0.1, True), (0.02, False)])
+def test_a_kept_key_frame_predicts_the_next_road_flow_only_below_6_mps(dt_s, predicted):
+    """Steps of 0.2 m keep their road key frame. At 2 m/s (10 Hz) the next step's road flow from it is
+    predicted at constant velocity; at 10 m/s (50 Hz) it is not (a car that fast whose road barely moves in
+    view has lost it)."""
+    step = FlowGeometryStep(CAMERA, HW)
+    previous = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
+    for k in range(2):
+        step.motion((k * dt_s, (k + 1) * dt_s), previous, step_flow(step, 0.2))
+    assert step._road_key is previous
+    assert (step._road_prediction is not None) == predicted
+
+
+def test_onward_road_homography_maps_the_key_frames_road_into_the_next_frame_exactly():
+    K = CAMERA.K
+    road = np.c_[np.linspace(-3, 3, 20), np.full(20, 1.5), np.linspace(6, 30, 20)]  # 1.5 m below the key camera
+    R_key = so3_exp(np.array([0.002, 0.03, -0.001]))  # key frame -> current frame, 0.5 m
+    key = EssentialMotion(R_key, -R_key @ np.array([0.05, 0.0, 1.0]) / np.hypot(0.05, 1.0), np.ones(20, bool))
+    R_step = so3_exp(np.array([0.0, 0.02, 0.0]))  # the current step, 0.3 m, taken once more
+    step_motion = EssentialMotion(R_step, -R_step @ np.array([0.0, 0.0, 1.0]), np.ones(20, bool))
+    H = onward_road_homography(K, SimpleNamespace(normal=np.array([0.0, 1.0, 0.0])), key, 0.5, step_motion, 0.3,
+                               1.5)
+    in_next = (road @ R_key.T + key.t_dir * 0.5) @ R_step.T + step_motion.t_dir * 0.3
+    mapped = np.c_[project(K, road), np.ones(20)] @ H.T
+    np.testing.assert_allclose(mapped[:, :2] / mapped[:, 2:], project(K, in_next), atol=1e-3)  # float32 pixels
 
 
 def test_the_window_measures_each_step_against_the_last_through_the_continued_tracks():
