@@ -81,6 +81,20 @@ def test_motion_along_a_known_direction_rejects_outliers():
     np.testing.assert_allclose(motion.R, R, atol=2e-5)
 
 
+@pytest.mark.parametrize("start_yaw_rad", [-0.05, -0.02, 0.01, 0.04])
+def test_motion_along_finds_the_motion_most_tracks_share_with_a_second_motion_in_view(start_yaw_rad):
+    """A third of the tracks move with a second motion (something turning 3 degrees more, as a vehicle
+    alongside); from starts up to 3 degrees off, on either side, the rotation most tracks share comes back."""
+    scene, _, R, t = scene_and_motion()
+    moved = project(scene @ R.T + t)
+    other = np.random.default_rng(1).random(len(scene)) < 0.35
+    moved[other] = project(scene[other] @ so3_exp(np.array([0.0, 0.05, 0.0])).T + 0.3 * t)
+    start = so3_exp(np.array([0.0, start_yaw_rad, 0.0])) @ R
+    motion = motion_along(project(scene), moved, K, -R.T @ t / np.linalg.norm(t), start, threshold_px=0.25)
+    assert motion is not None and motion.inliers[~other].all() and motion.inliers[other].mean() < 0.1
+    np.testing.assert_allclose(motion.R, R, atol=2e-5)  # a few of the others lie on their lines
+
+
 def test_motion_along_leaves_tracks_without_a_position_out():
     scene, _, R, t = scene_and_motion()
     moved = project(scene @ R.T + t)

@@ -9,6 +9,7 @@ frame is ``R X + t`` in the second camera's frame.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -125,15 +126,19 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
 
 
 def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, direction: np.ndarray,
-                 R_start: np.ndarray, threshold_px: float = 0.5, min_inliers: int = 30) -> EssentialMotion | None:
+                 R_start: np.ndarray, threshold_px: float = 0.5, min_inliers: int = 30,
+                 hypotheses: int = 200) -> EssentialMotion | None:
     """The motion with a given direction of travel ``direction`` (unit, first camera's frame) that best explains
-    correspondences (N, 2): its rotation ``R_next_prev`` fitted from ``R_start`` with a Cauchy loss (at 1 px,
-    then at ``threshold_px``) of each point's distance to its epipolar line in the second image, pixels, then by least
-    squares on the inliers (within ``threshold_px``; tracks with a non-finite position are none). None when
-    fewer than ``min_inliers`` remain.
+    correspondences (N, 2): its rotation ``R_next_prev`` by RANSAC, then least squares on the inliers. A track's
+    residual is its distance to its epipolar line in the second image (pixels); inliers lie within
+    ``threshold_px`` (tracks with a non-finite position never). Each of ``hypotheses`` rotations solves three
+    random tracks' epipolar constraints, linear in a small rotation about ``R_start`` (two Gauss-Newton steps);
+    the one with most inliers wins (a local fit from ``R_start`` alone can settle on a second motion in view).
+    Deterministic. None when fewer than ``min_inliers`` remain.
 
-    With ``t = -R d`` the essential matrix is ``[t]x R = -R [d]x``, so a point's epipolar line in the second
-    image is ``K^-T R (d x r1)``.
+    With ``t = -R d`` the essential matrix is ``[t]x R = -R [d]x``: a track's epipolar line in the second image is
+    ``K^-T R (d x r1)``, and the constraint ``r2 . R (d x r1) = 0`` is linear in a small rotation ``w`` applied
+    after ``R``: ``r2 . m + w . (m x r2) = 0`` with ``m = R (d x r1)``.
     """
     usable = np.isfinite(points_prev).all(axis=1) & np.isfinite(points_next).all(axis=1)
     if usable.sum() < min_inliers:
@@ -142,27 +147,44 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     next_px = np.ones((len(points_next), 3))
     next_px[:, :2] = points_next
     inverse_K = _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
+    next_rays = next_px @ inverse_K.T
 
-    def distances_px(rotation: np.ndarray) -> np.ndarray:
-        lines = normals @ rotation.T @ inverse_K  # (N, 3) in the second image's pixels
-        return np.einsum("ij,ij->i", lines, next_px) / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12)
+    def distances_px(rotations: np.ndarray) -> np.ndarray:
+        """Each track's signed distance to its epipolar line (..., N) under rotations (..., 3, 3)."""
+        lines = np.matmul(np.matmul(normals, np.swapaxes(rotations, -1, -2)), inverse_K)  # second image's pixels
+        return (lines * next_px).sum(axis=-1) / np.maximum(np.hypot(lines[..., 0], lines[..., 1]), 1e-12)
 
-    def rotation_of(update: np.ndarray) -> np.ndarray:
-        return Rotation.from_rotvec(update).as_matrix() @ R_start
-
-    update = np.zeros(3)
-    for scale_px in (max(4.0 * threshold_px, 1.0), threshold_px):  # wide first: from a start degrees off, every
-        # point lies in a narrow Cauchy loss's flat tail (clip 01's refused step in a 1240 px video: 36 inliers
-        # at 0.25 px alone, 246 from 1 px)
-        update = least_squares(lambda u: distances_px(rotation_of(u))[usable], update, loss="cauchy",
-                               f_scale=scale_px).x
-    inliers = usable & (np.abs(distances_px(rotation_of(update))) <= threshold_px)
+    usable_rows = np.flatnonzero(usable)
+    samples = np.random.default_rng(0).random((hypotheses, len(usable_rows))).argsort(axis=1)[:, :3]
+    samples = usable_rows[samples]  # (H, 3) distinct tracks
+    rotations = np.broadcast_to(R_start, (hypotheses, 3, 3))
+    for _ in range(2):
+        m = np.einsum("hkj,hsj->hsk", rotations, normals[samples])  # R (d x r1), (H, 3, 3)
+        jacobian = np.cross(m, next_rays[samples])  # (H, 3 tracks, 3)
+        residual = np.einsum("hsk,hsk->hs", m, next_rays[samples])
+        solvable = np.abs(np.linalg.det(jacobian)) > 1e-12
+        update = np.zeros((hypotheses, 3))
+        update[solvable] = np.linalg.solve(jacobian[solvable], -residual[solvable][..., None])[..., 0]
+        rotations = Rotation.from_rotvec(update).as_matrix() @ rotations
+    counts = ((np.abs(distances_px(rotations)) <= threshold_px) & usable).sum(axis=1)
+    R = rotations[int(np.argmax(counts))]
+    for _ in range(2):  # least squares on the inliers, which are then chosen again
+        inliers = usable & (np.abs(distances_px(R)) <= threshold_px)
+        if inliers.sum() < min_inliers:
+            return None
+        R = _least_squares_rotation(distances_px, R, inliers)
+    inliers = usable & (np.abs(distances_px(R)) <= threshold_px)
     if inliers.sum() < min_inliers:
         return None
-    polished = least_squares(lambda u: distances_px(rotation_of(u))[inliers], update)  # the inliers
-    # alone, unweighted: the outliers' Cauchy weights still pull a little
-    R = rotation_of(polished.x)
     return EssentialMotion(R, -R @ direction, inliers)
+
+
+def _least_squares_rotation(residuals: Callable[[np.ndarray], np.ndarray], R: np.ndarray, rows: np.ndarray
+                            ) -> np.ndarray:
+    """The rotation near ``R`` (a small rotation applied after it) that minimises the squares of
+    ``residuals(rotation)[rows]``."""
+    update = least_squares(lambda u: residuals(Rotation.from_rotvec(u).as_matrix() @ R)[rows], np.zeros(3)).x
+    return Rotation.from_rotvec(update).as_matrix() @ R
 
 
 def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:

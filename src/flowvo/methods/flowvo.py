@@ -75,9 +75,6 @@ KEY_ROAD_PX = DIS_REACH_PX / 2  # a step whose road moved less keeps its road ke
 # measured over a longer baseline (two such steps stay within DIS's reach;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
-MIN_REFIT_INLIER_SHARE = 0.5  # of the fit's inliers, for a refused step's rotation fitted again along the last
-# direction (the refits of replay 09 and clip 01 kept 80-95 %; one that explains far fewer tracks found
-# another motion than the fit's)
 MAX_KEY_PREDICTION_SPEED_MPS = 6.0  # below it a kept road key frame's flow is predicted too (as the previous
 # frame's is): clip 07 over working widths 1.63 -> 1.50 % (median); at any speed 1.50 %, but earlier a wrong
 # two-step plane at 12 m/s passed every gate on a generated drive
@@ -339,13 +336,12 @@ class FlowGeometryStep(WorkingFrames):
         """The step's motion up to scale: the fit, or, where its direction of travel lies further off the forward
         axis than a fast car's can (:mod:`flowvo.travel_direction`), the motion along the last direction taken
         at speed with its rotation fitted again to the tracks (:func:`motion_along`: the fit's rotation came
-        with its wrong direction; kept where the refit explains fewer than half the fit's inliers)."""
+        with its wrong direction; kept where no rotation along that direction explains 30 tracks)."""
         direction = -fit.R.T @ fit.t_dir  # of travel, in the first frame of the step
         taken = self.travel.checked(direction, self.speed.last_speed_mps)
         if taken is direction:
             return fit
-        along = motion_along(flow.motion_prev, flow.motion_next, self.K, taken, fit.R, self.threshold_px,
-                             min_inliers=max(int(MIN_REFIT_INLIER_SHARE * fit.inliers.sum()), 30))
+        along = motion_along(flow.motion_prev, flow.motion_next, self.K, taken, fit.R, self.threshold_px)
         return along if along is not None else EssentialMotion(fit.R, -fit.R @ taken, fit.inliers)
 
     def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
