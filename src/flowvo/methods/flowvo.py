@@ -311,8 +311,10 @@ class FlowGeometryStep(WorkingFrames):
             self._road_key, self._key_time_s, self._key_steps = key_frame, key_time_s, key_steps
             last_speed_mps = self.speed.last_speed_mps
             if last_speed_mps is not None and last_speed_mps < MAX_KEY_PREDICTION_SPEED_MPS:
-                self._road_prediction = onward_road_homography(self.K, plane, key_fit, road_m, fit, step_m,
-                                                               self.camera_height_m)
+                # this step's share of the road by the count of steps, not by time: the warp DIS sees must not
+                # depend on the timestamps' last bits (a bag's stamps against times.txt: 2 % apart otherwise)
+                self._road_prediction = onward_road_homography(self.K, plane, key_fit, road_m, fit,
+                                                               road_m / key_steps, self.camera_height_m)
         elif plane is not None and key_is_previous:
             self._road_prediction = road_homography(self.K, fit, plane)
         network_m = None
