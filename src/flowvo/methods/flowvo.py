@@ -76,7 +76,7 @@ KEY_ROAD_PX = DIS_REACH_PX / 2  # a step whose road moved less keeps its road ke
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
 MAX_KEY_PREDICTION_SPEED_MPS = 6.0  # below it a kept road key frame's flow is predicted too (as the previous
-# frame's is): clip 07 over working widths 1.63 -> 1.50 % (median); at any speed 1.50 %, but earlier a wrong
+# frame's is): clip 07 over working widths 1.63 -> 1.47 % (median); at any speed as good, but earlier a wrong
 # two-step plane at 12 m/s passed every gate on a generated drive
 TIME_TOLERANCE_S = 1e-6  # timestamps from different containers differ in their last bits (0.3 against
 # 0.30000000000000004): an age compared with MAX_ROAD_KEY_S must not depend on them
