@@ -93,17 +93,26 @@ def test_at_speed_a_fitted_direction_no_car_can_take_gives_way_to_the_last_one(s
     assert step.summary()["direction_kept_steps"] == kept
 
 
+WRONG_R = so3_exp(np.array([0.0, 0.05, 0.0]))  # a sideways fit's rotation, 1.7 degrees off a 0.02 rad turn
+
+
+def at_speed_with_sideways_fits(monkeypatch):
+    """A step after a forward 1 m step at 10 m/s whose essential fits from now on come back sideways (every
+    track an inlier) with rotation ``WRONG_R``."""
+    step = FlowGeometryStep(CAMERA, HW)
+    step.motion((0.0, 0.1), None, step_flow(step, 1.0))
+
+    def sideways_fit(points_prev, points_next, K, threshold_px):
+        return EssentialMotion(WRONG_R, -WRONG_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
+
+    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
+    return step
+
+
 def test_a_refused_direction_takes_the_rotation_the_tracks_give_along_the_last_direction(monkeypatch):
     """At 10 m/s the fit of a forward step turning 0.02 rad comes back sideways with its rotation 1.7 degrees
     off (as past a crest): the step goes forward, with the rotation the tracks give along that direction."""
-    step = FlowGeometryStep(CAMERA, HW)
-    step.motion((0.0, 0.1), None, step_flow(step, 1.0))
-    wrong_R = so3_exp(np.array([0.0, 0.05, 0.0]))
-
-    def sideways_fit(points_prev, points_next, K, threshold_px):
-        return EssentialMotion(wrong_R, -wrong_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
-
-    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
+    step = at_speed_with_sideways_fits(monkeypatch)
     turned = step.motion((0.1, 0.2), None, step_flow(step, 1.0, yaw_rad=0.02))
     np.testing.assert_allclose(turned[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-6)  # float32 tracks
     np.testing.assert_allclose(turned[:3, 3] / np.linalg.norm(turned[:3, 3]), [0.0, 0.0, 1.0], atol=1e-6)
@@ -113,18 +122,11 @@ def test_a_refused_direction_takes_the_rotation_the_tracks_give_along_the_last_d
 def test_a_refused_direction_keeps_the_fits_rotation_where_no_rotation_along_the_last_direction_fits(monkeypatch):
     """At 10 m/s a sideways fit of tracks that no motion explains (each moved at random): the step goes
     forward with the fit's rotation."""
-    step = FlowGeometryStep(CAMERA, HW)
-    step.motion((0.0, 0.1), None, step_flow(step, 1.0))
-    wrong_R = so3_exp(np.array([0.0, 0.05, 0.0]))
-
-    def sideways_fit(points_prev, points_next, K, threshold_px):
-        return EssentialMotion(wrong_R, -wrong_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
-
-    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
+    step = at_speed_with_sideways_fits(monkeypatch)
     flow = step_flow(step, 1.0)
     scattered = flow.motion_prev + np.random.default_rng(0).uniform(-20, 20, flow.motion_prev.shape).astype(np.float32)
     kept = step.motion((0.1, 0.2), None, dataclasses.replace(flow, motion_next=scattered))
-    np.testing.assert_allclose(kept[:3, :3], wrong_R.T, atol=1e-12)
+    np.testing.assert_allclose(kept[:3, :3], WRONG_R.T, atol=1e-12)
     np.testing.assert_allclose(kept[:3, 3] / np.linalg.norm(kept[:3, 3]), [0.0, 0.0, 1.0], atol=1e-9)
 
 
