@@ -9,6 +9,9 @@ from flowvo.geometry import planar_targets, so3_exp
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.synth.camera_path import generate_path, levelled
 from flowvo.synth.dataset import sequence_seed, synthesize
+from flowvo.synth.render import pixel_rays, render
+from flowvo.synth.sequence_writer import intrinsics
+from flowvo.synth.textures import make_textures
 from flowvo.synth.world import World, build_world
 
 
@@ -61,6 +64,34 @@ def test_the_road_stays_level_under_the_camera_after_a_turn_from_a_grade():
     for frame in (0, 75, 149):
         roll_deg, pitch_deg = _road_tilt_deg(world, path[frame])
         assert abs(roll_deg) < 0.5 and abs(pitch_deg) < 2.0  # jitter 0.34 deg; grade changes ahead
+
+
+def _straight_grade(grade: float, frames: int = 300) -> np.ndarray:
+    """Poses (N, 4, 4) 1 m apart along a straight road of constant ``grade`` (rise over run, up +), each camera
+    pitched with the road (y down: the road rises as y falls)."""
+    along, up = np.array([0.0, -grade, 1.0]) / np.hypot(1.0, grade), np.array([0.0, 1.0, grade]) / np.hypot(1.0, grade)
+    poses = np.tile(np.eye(4), (frames, 1, 1))
+    poses[:, :3, 0], poses[:, :3, 1], poses[:, :3, 2] = [1.0, 0.0, 0.0], up, along
+    poses[:, :3, 3] = np.arange(frames)[:, None] * np.array([0.0, -grade, 1.0])
+    return poses
+
+
+@pytest.mark.parametrize("grade", [-0.08, 0.0, 0.08])
+def test_the_road_ahead_is_rendered_at_its_depth_on_a_climb_and_a_descent(grade):
+    """On a constant grade, with the camera pitched along it, the road is the plane 1.65 m below the camera in its
+    own frame: a pixel's depth is 1.65 / yn. A fixed-point search for the ground from the level ground under the
+    camera diverged where the road ahead rises faster than the ray falls: on an 8 % climb it rendered no road
+    beyond 8 m (the horizon's backdrop instead)."""
+    poses = _straight_grade(grade)
+    world = build_world(poses, 3)
+    K, size = intrinsics(0.5)
+    rays = pixel_rays(K, size)
+    _, depth = render(world, make_textures(3), poses[20], rays)
+    column = int(round(K[0, 2]))
+    rows = np.arange(size[0])
+    yn = (rows - K[1, 2]) / K[1, 1]
+    road = (yn > 1.65 / 60.0) & (yn < 1.65 / 5.0)  # 5-60 m ahead, along the path (no hills within 12 m of it)
+    np.testing.assert_allclose(depth[road, column], 1.65 / yn[road], rtol=0.002)
 
 
 def test_true_flow_warps_next_frame_onto_current(synthetic_root):

@@ -127,7 +127,12 @@ def build_world(T_world_cam: np.ndarray, seed: int, scene: str | None = None,
     undulation = 2.5 * cv2.GaussianBlur(rng.normal(size=shape).astype(np.float32), (0, 0), 60.0)
     undulation /= max(float(np.abs(undulation).max()), 1e-6) / 3.0
     blend = np.clip((distance - 12.0) / 60.0, 0.0, 1.0)
-    ground = path[nearest, 1] + camera_height_m - blend * undulation  # hills rise away from the road
+    # the road's height at each cell's own place along the path (its nearest sample lies up to a cell away: on a
+    # grade the road was off by that), the camera camera_height_m above it along the road's normal: on a grade g,
+    # sqrt(1 + g^2) times as far straight down (the grade over 4 m of path)
+    road_y = np.interp(along_grid, along, path[:, 1])
+    grade = (np.interp(along_grid + 2.0, along, path[:, 1]) - np.interp(along_grid - 2.0, along, path[:, 1])) / 4.0
+    ground = road_y + camera_height_m * np.sqrt(1.0 + grade**2) - blend * undulation  # hills rise away from the road
     ground = cv2.GaussianBlur(ground.astype(np.float32), (0, 0), 2.0)
     starts, kinds = scene_schedule(seed, along[-1], scene)
     scene_index = kinds[np.searchsorted(starts, along_grid, side="right").clip(1) - 1].astype(np.float32)
