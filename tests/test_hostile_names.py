@@ -13,6 +13,7 @@ from hostile import cli, refused, tree_digest
 
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.model.checkpoint import packaged_model_path
+from flowvo.synth import sequence_writer
 from flowvo.synth.dataset import synthesize
 
 PATH_NAMES = ["D/sequences/00", "../00", "..", ".", "", "00/..", "/tmp/00", "-00", ".hidden", "a b", "00\\x",
@@ -192,6 +193,18 @@ def test_synth_over_another_rendering_refuses_then_force_leaves_a_consistent_dat
     assert tree_digest(tmp_path / "sequences" / "00") == tree_digest(fresh / "sequences" / "00")
     np.testing.assert_array_equal(np.loadtxt(tmp_path / "poses" / "00.txt"), np.loadtxt(fresh / "poses" / "00.txt"))
     assert tree_digest(tmp_path / "sequences" / "01") == kept
+
+
+def test_synth_does_not_resume_frames_of_an_earlier_renderer(tmp_path, capsys, monkeypatch):
+    """The same spec rendered by an earlier renderer generation is another rendering: refused, then replaced whole."""
+    monkeypatch.setattr(sequence_writer, "RENDERER_GENERATION", sequence_writer.RENDERER_GENERATION - 1)
+    assert cli(capsys, *synth(tmp_path))[0] == 0
+    monkeypatch.undo()
+    refused(capsys, *synth(tmp_path), says=("sequence(s) 00 rendered differently", "--force"))
+    assert cli(capsys, *synth(tmp_path, "--force"))[0] == 0
+    fresh = tmp_path / "fresh"
+    synthesize(fresh, ["00"], frames=6, scale=0.1, workers=1)
+    assert tree_digest(tmp_path / "sequences" / "00") == tree_digest(fresh / "sequences" / "00")
 
 
 def test_synth_force_never_replaces_a_sequence_it_did_not_write(tmp_path, capsys):

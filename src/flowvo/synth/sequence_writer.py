@@ -59,11 +59,16 @@ class SynthSpec:
         return level if not self.camera.pitch_deg else level @ self.camera.mounting()
 
 
+RENDERER_GENERATION = 2  # raised when the same spec renders other frames (2: the road ahead on climbs), so that
+# frames of an earlier renderer are never resumed beside new ones
+
+
 def spec_digest(spec: SynthSpec) -> str:
-    """SHA-256 of everything that determines the rendered files (poses, seed, scale, scene, GT flow, camera):
-    two runs with equal digests write identical sequences, so frames on disk may be reused (resume). KITTI's
-    camera adds nothing, so renders made before the camera options resume."""
+    """SHA-256 of everything that determines the rendered files (renderer generation, poses, seed, scale, scene,
+    GT flow, camera): two runs with equal digests write identical sequences, so frames on disk may be reused
+    (resume). KITTI's camera adds nothing, so renders made before the camera options resume."""
     digest = hashlib.sha256(np.ascontiguousarray(spec.T_world_cam, dtype=np.float64).tobytes())
+    digest.update(f"renderer {RENDERER_GENERATION}".encode())
     digest.update(repr((spec.seed, float(spec.scale), spec.scene, spec.gt_flow)).encode())
     if not spec.camera.is_kitti:
         digest.update(repr((spec.camera, spec.frames)).encode())
