@@ -26,7 +26,7 @@ HIT_TOLERANCE_M = 0.001  # a ray within this of the ground (plus 1e-5 of its dep
 # the road 50 m ahead falls 3 cm a metre relative to it, so the depth is then within 5 cm
 MARCH_GROWTH = 1.15  # the rays missed are marched in steps 15 % longer each (0.3 m to 400 m: 52 steps)
 MARCH_BISECTIONS = 20  # then narrowed to a millionth of the last step
-SLOPE_STEP_M = 0.25  # the ground's slope under a pixel, by forward differences over this
+SLOPE_STEP_M = 0.25  # the ground's slope under a pixel, by forward differences over this (under the camera: 1 m)
 SUN_DIRECTION = np.array([0.45, -0.8, 0.4]) / np.linalg.norm([0.45, -0.8, 0.4])  # towards the sun, y down
 TILE_PX = 8  # block side (pixels) for finding a quad's pixels through a lens: small blocks test few extra pixels
 MATERIALS = ("sky", "asphalt", "grass", "facade", "brick", "foliage", "bark", "hills")
@@ -114,9 +114,7 @@ def _terrain(world: World, origin: np.ndarray, d: np.ndarray, focal_px: float) -
     ray_norm = np.linalg.norm(dc, axis=0)
     # the cosine between the ray and the ground's normal (the ground's slope by forward differences: on a climb the
     # road ahead faces the camera more than level ground would)
-    ground = world.lookup(world.ground_y, x, z)
-    slope_x = (world.lookup(world.ground_y, x + SLOPE_STEP_M, z) - ground) / SLOPE_STEP_M
-    slope_z = (world.lookup(world.ground_y, x, z + SLOPE_STEP_M) - ground) / SLOPE_STEP_M
+    _, slope_x, slope_z = _ground_and_slope(world, x, z, SLOPE_STEP_M)
     grazing = (dc[1] - slope_x * dc[0] - slope_z * dc[2]) / (ray_norm * np.sqrt(1 + slope_x**2 + slope_z**2))
     shade = np.asarray([SCENE_BRIGHTNESS[k] for k in SCENE_TYPES], np.float32)[scene]
     shade = np.where(on_road & _lane_marking(lateral, along, half_road), shade * 2.3, shade)
@@ -138,6 +136,15 @@ def _terrain(world: World, origin: np.ndarray, d: np.ndarray, focal_px: float) -
     return surface
 
 
+def _ground_and_slope(world: World, x: np.ndarray, z: np.ndarray, step_m: float
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ground's height (y, down) at world points ``x, z`` and its slopes along x and z (forward differences
+    over ``step_m`` metres)."""
+    ground = world.lookup(world.ground_y, x, z)
+    return (ground, (world.lookup(world.ground_y, x + step_m, z) - ground) / step_m,
+            (world.lookup(world.ground_y, x, z + step_m) - ground) / step_m)
+
+
 def _ground_hits(world: World, origin: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Where rays ``d`` (3, N) (world frame, per unit camera depth) from ``origin`` first reach the ground within
     ``MAX_DEPTH_M``: the indices (K,) of the rays that do and their depths (K,) float32.
@@ -148,9 +155,8 @@ def _ground_hits(world: World, origin: np.ndarray, d: np.ndarray) -> tuple[np.nd
     the sky) are marched (:func:`_march_to_ground`). Starting from level ground instead missed the road ahead on a
     climb: the iteration diverges where the ground along a ray rises faster than the ray falls."""
     n = d.shape[1]
-    ground_here, ahead_x, ahead_z = world.lookup(world.ground_y, origin[0] + np.array([0.0, 1.0, 0.0]),
-                                                 origin[2] + np.array([0.0, 0.0, 1.0]))
-    fall = d[1] - (ahead_x - ground_here) * d[0] - (ahead_z - ground_here) * d[2]  # towards the plane, per unit depth
+    (ground_here,), (slope_x,), (slope_z,) = _ground_and_slope(world, origin[:1], origin[2:3], 1.0)
+    fall = d[1] - slope_x * d[0] - slope_z * d[2]  # towards the plane, per unit depth
     candidates = np.flatnonzero(fall > 1e-4)
     dc, fall = d[:, candidates], fall[candidates]
 
@@ -214,7 +220,7 @@ def _march_to_ground(world: World, origin: np.ndarray, d: np.ndarray) -> tuple[n
         ground = world.lookup(world.ground_y, origin[0] + t * dx.take(active), origin[2] + t * dz.take(active))
         below = origin[1] + t * dy.take(active) >= ground
         below_at[active[below]] = t[below]
-        active = active[~below & (t < np.minimum(reach.take(active), MAX_DEPTH_M))]
+        active = active[~below & (t < reach.take(active))]
     found = np.flatnonzero(np.isfinite(below_at))
     fx, fy, fz = dx[found], dy[found], dz[found]
     high = below_at[found]
