@@ -7,9 +7,10 @@ import pytest
 from flowvo.cli import main
 from flowvo.geometry import planar_targets, so3_exp
 from flowvo.kitti.sequence import KittiSequence
-from flowvo.synth.camera_path import generate_path, levelled
+from flowvo.synth.camera_path import generate_path
 from flowvo.synth.dataset import sequence_seed, synthesize
 from flowvo.synth.render import pixel_rays, render
+from flowvo.synth.replay_path import drivable_heights, levelled
 from flowvo.synth.sequence_writer import intrinsics
 from flowvo.synth.textures import make_textures
 from flowvo.synth.world import World, build_world
@@ -156,6 +157,32 @@ def test_a_replayed_drive_is_levelled_by_its_cameras_lateral_axes():
     assert np.degrees(np.arccos(path[0, 1, 1])) > 1.0  # the first camera, and so the replayed frame, was tilted
     np.testing.assert_allclose(np.linalg.inv(level[:-1]) @ level[1:], np.linalg.inv(replayed[:-1]) @ replayed[1:],
                                atol=1e-9)
+
+
+def test_a_replayed_height_the_camera_contradicts_follows_the_camera():
+    """KITTI 08's start, reduced: a level camera at walking pace (0.08 m a step) whose ground-truth height rises
+    0.18 m a step for 20 steps. The replay's heights follow the camera (level) there, and the rest of the drive
+    (a 1 m a step approach) keeps its own height changes, shifted by what was removed."""
+    drive = np.repeat(np.eye(4)[None], 41, axis=0)
+    step_z = np.r_[np.full(20, 1.0), np.full(20, 0.08)]
+    step_up = np.r_[np.full(20, 0.01), np.full(20, 0.18)]  # a 0.6 deg climb, then 66 deg
+    drive[1:, 2, 3] = np.cumsum(step_z)
+    drive[1:, 1, 3] = -np.cumsum(step_up)
+    drivable = drivable_heights(drive)
+    np.testing.assert_array_equal(drivable[:21], drive[:21])  # within 5 deg of the camera's axis: kept
+    median_offset = np.arctan2(0.01, 1.0)  # of the steps that moved at least 0.1 m horizontally: the 1 m ones
+    np.testing.assert_allclose(np.diff(drivable[20:, 1, 3]), -0.08 * np.tan(median_offset), atol=1e-12)
+    heights_aside = drivable.copy()
+    heights_aside[:, 1, 3] = drive[:, 1, 3]
+    np.testing.assert_array_equal(heights_aside, drive)  # horizontal positions and rotations untouched
+
+
+def test_generated_drives_and_replays_of_real_hills_keep_their_heights():
+    """Generated drives climb along their cameras' axes (hills of about 15 m): nothing changes, bit for bit."""
+    for seed in (3, 1021):
+        drive = generate_path(1200, seed)
+        assert np.ptp(drive[:, 1, 3]) > 10.0
+        np.testing.assert_array_equal(drivable_heights(drive), drive)
 
 
 def test_a_drive_that_never_turns_keeps_its_frame_about_the_lateral_axis():
