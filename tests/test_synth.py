@@ -10,7 +10,7 @@ from flowvo.kitti.sequence import KittiSequence
 from flowvo.synth.camera_path import generate_path
 from flowvo.synth.dataset import sequence_seed, synthesize
 from flowvo.synth.render import pixel_rays, render
-from flowvo.synth.replay_path import drivable_heights, levelled
+from flowvo.synth.replay_path import consistent_heights, drivable_heights, levelled
 from flowvo.synth.sequence_writer import intrinsics
 from flowvo.synth.textures import make_textures
 from flowvo.synth.world import World, build_world
@@ -183,6 +183,37 @@ def test_generated_drives_and_replays_of_real_hills_keep_their_heights():
         drive = generate_path(1200, seed)
         assert np.ptp(drive[:, 1, 3]) > 10.0
         np.testing.assert_array_equal(drivable_heights(drive), drive)
+
+
+def test_a_loop_whose_height_drifted_meets_itself_again():
+    """Twice around a 50 m circle at 1 m a step, stopping 20 frames on the way, with a ground-truth height
+    that drifts 2 m up per lap (a grade of 0.64 % closes it): afterwards the second lap runs within 0.1 m of
+    the first's height where they overlap, the grade changes by at most 1 %, the standstill stays still, and
+    only heights change."""
+    angle = np.arange(0.0, 2 * np.pi * 1.5, 1.0 / 50.0)
+    angle = np.insert(angle, 100, np.full(20, angle[100]))  # a standstill
+    drive = np.repeat(np.eye(4)[None], len(angle), axis=0)
+    drive[:, 0, 3], drive[:, 2, 3] = 50.0 * np.sin(angle), 50.0 * (1.0 - np.cos(angle))
+    drive[:, 1, 3] = -2.0 * angle / (2 * np.pi)
+    consistent = consistent_heights(drive)
+    lap = np.flatnonzero(angle >= 2 * np.pi)
+    first_lap = np.searchsorted(angle, angle[lap] - 2 * np.pi)
+    assert np.abs(consistent[lap, 1, 3] - consistent[first_lap, 1, 3]).max() < 0.1
+    assert np.abs(drive[lap, 1, 3] - drive[first_lap, 1, 3]).min() > 1.9  # the cliff it would have built
+    steps = np.hypot(*np.diff(drive[:, [0, 2], 3], axis=0).T)
+    moving = steps > 1e-9
+    grade_change = np.diff(consistent[:, 1, 3] - drive[:, 1, 3])[moving] / steps[moving]
+    assert np.abs(grade_change).max() < 0.01
+    np.testing.assert_allclose(consistent[100:121, 1, 3], consistent[100, 1, 3], atol=1e-9)
+    assert consistent[0, 1, 3] == pytest.approx(drive[0, 1, 3], abs=1e-12)
+    heights_aside = consistent.copy()
+    heights_aside[:, 1, 3] = drive[:, 1, 3]
+    np.testing.assert_array_equal(heights_aside, drive)
+
+
+def test_a_drive_that_never_comes_back_keeps_its_heights():
+    drive = generate_path(600, 1021)
+    np.testing.assert_array_equal(consistent_heights(drive), drive)
 
 
 def test_a_drive_that_never_turns_keeps_its_frame_about_the_lateral_axis():

@@ -12,7 +12,7 @@ from flowvo.kitti.sequence import sequence_name
 from flowvo.outputs import check_path_text
 from flowvo.synth.camera_path import PathConfig, generate_path
 from flowvo.synth.frame_rate import frames_spanning, path_frames_for
-from flowvo.synth.replay_path import drivable_heights, levelled
+from flowvo.synth.replay_path import consistent_heights, drivable_heights, levelled
 from flowvo.synth.sequence_writer import SynthSpec, intrinsics, spec_digest, write_sequence
 from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera, check_lens
 
@@ -53,8 +53,8 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
             frames = frames_spanning(len(T), PATH_RATE_HZ, camera.fps)  # a short replay: all of it
         if len(T) < 2:
             raise FlowvoError(f"holds {len(T)} pose; a replayed sequence needs at least 2 frames", path)
-        T = drivable_heights(levelled(T))  # its world is built level, along heights a car can drive; the pose
-        # file is written relative to the first camera
+        T = consistent_heights(drivable_heights(levelled(T)))  # its world is built level, along heights a car can
+        # drive, one height where it passes again; the pose file is written relative to the first camera
     else:
         T = generate_path(DEFAULT_FRAMES if frames is None else path_frames, world_seed,
                           PathConfig(max_speed_mps=max_speed_mps))
