@@ -99,17 +99,12 @@ def consistent_heights(T_world_cam: np.ndarray) -> np.ndarray:
     left = np.minimum((driven // NODE_SPACING_M).astype(np.int64), nodes - 2)  # each pose between two nodes
     share = driven / NODE_SPACING_M - left
     first, second = pairs[:, 0], pairs[:, 1]
-    agree = coo_matrix((np.stack([1 - share[first], share[first], share[second] - 1, -share[second]], 1).ravel()
-                        / REVISIT_SIGMA_M, (np.repeat(np.arange(len(pairs)), 4),
-                                            np.stack([left[first], left[first] + 1, left[second], left[second] + 1],
-                                                     1).ravel())), shape=(len(pairs), nodes))
-    inner = np.arange(1, nodes - 1)
-    bend = coo_matrix((np.tile([1.0, -2.0, 1.0], len(inner)) / BEND_SIGMA_M,
-                       (np.repeat(inner - 1, 3), np.stack([inner - 1, inner, inner + 1], 1).ravel())),
-                      shape=(len(inner), nodes))
-    spans = np.arange(nodes - 1)
-    grade = coo_matrix((np.tile([-1.0, 1.0], len(spans)) / (NODE_SPACING_M * GRADE_SIGMA),
-                        (np.repeat(spans, 2), np.stack([spans, spans + 1], 1).ravel())), shape=(len(spans), nodes))
+    pair_nodes = np.stack([left[first], left[first] + 1, left[second], left[second] + 1], 1)
+    pair_weights = np.stack([1 - share[first], share[first], share[second] - 1, -share[second]], 1)
+    agree = coo_matrix((pair_weights.ravel() / REVISIT_SIGMA_M, (np.repeat(np.arange(len(pairs)), 4),
+                                                                 pair_nodes.ravel())), shape=(len(pairs), nodes))
+    bend = _stencil([1.0, -2.0, 1.0], nodes, BEND_SIGMA_M)
+    grade = _stencil([-1.0, 1.0], nodes, NODE_SPACING_M * GRADE_SIGMA)
     start = coo_matrix(([1.0 / REVISIT_SIGMA_M], ([0], [0])), shape=(1, nodes))
     A = vstack([agree, bend, grade, start]).tocsr()
     b = np.zeros(A.shape[0])
@@ -119,6 +114,15 @@ def consistent_heights(T_world_cam: np.ndarray) -> np.ndarray:
     consistent = T_world_cam.copy()
     consistent[:, 1, 3] += (1 - share) * correction[left] + share * correction[left + 1]
     return consistent
+
+
+def _stencil(coefficients: list[float], nodes: int, sigma: float) -> coo_matrix:
+    """One row per run of ``len(coefficients)`` consecutive nodes, applying ``coefficients / sigma`` to it."""
+    width = len(coefficients)
+    runs = np.arange(nodes - width + 1)
+    return coo_matrix((np.tile(coefficients, len(runs)) / sigma,
+                       (np.repeat(runs, width), (runs[:, None] + np.arange(width)).ravel())),
+                      shape=(len(runs), nodes))
 
 
 def _revisits(horizontal_xz: np.ndarray, driven_m: np.ndarray) -> np.ndarray:
