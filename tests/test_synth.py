@@ -177,7 +177,7 @@ def test_a_replayed_height_the_camera_contradicts_follows_the_camera():
     np.testing.assert_array_equal(heights_aside, drive)  # horizontal positions and rotations untouched
 
 
-def test_generated_drives_and_replays_of_real_hills_keep_their_heights():
+def test_generated_drives_keep_their_heights_bit_for_bit():
     """Generated drives climb along their cameras' axes (hills of about 15 m): nothing changes, bit for bit."""
     for seed in (3, 1021):
         drive = generate_path(1200, seed)

@@ -56,9 +56,8 @@ def drivable_heights(T_world_cam: np.ndarray, max_off_axis_deg: float = MAX_CLIM
     that takes the camera's slope (at that offset) instead, and the positions after it follow. A replay's world is
     built along its path: a ground-truth height that jumps while the camera looks level (KITTI 08's start) would
     build a ramp no car drives. Horizontal positions and rotations are unchanged."""
-    steps = np.diff(T_world_cam[:, :3, 3], axis=0)
-    horizontal = np.hypot(steps[:, 0], steps[:, 2])
-    climb = -steps[:, 1]  # y is down
+    horizontal = _horizontal_steps(T_world_cam[:, :3, 3])
+    climb = -np.diff(T_world_cam[:, 1, 3])  # y is down
     forward = T_world_cam[:-1, :3, 2] + T_world_cam[1:, :3, 2]
     axis_elevation = np.arctan2(-forward[:, 1], np.hypot(forward[:, 0], forward[:, 2]))
     moving = horizontal >= MOVING_STEP_M
@@ -91,7 +90,7 @@ def consistent_heights(T_world_cam: np.ndarray) -> np.ndarray:
     (KITTI 08 comes back past its start 4.8 m higher, 09 to its start 3.9 m) built a cliff between them.
     Horizontal positions and rotations are unchanged; a drive that never comes back is returned as it is."""
     positions = T_world_cam[:, :3, 3]
-    driven = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(positions[:, [0, 2]], axis=0).T))])
+    driven = np.concatenate([[0.0], np.cumsum(_horizontal_steps(positions))])
     pairs = _revisits(positions[:, [0, 2]], driven)
     if not len(pairs):
         return T_world_cam.copy()
@@ -114,6 +113,12 @@ def consistent_heights(T_world_cam: np.ndarray) -> np.ndarray:
     consistent = T_world_cam.copy()
     consistent[:, 1, 3] += (1 - share) * correction[left] + share * correction[left + 1]
     return consistent
+
+
+def _horizontal_steps(positions: np.ndarray) -> np.ndarray:
+    """The horizontal length (metres, over x and z) of each step between positions (N, 3): (N - 1,)."""
+    steps = np.diff(positions, axis=0)
+    return np.hypot(steps[:, 0], steps[:, 2])
 
 
 def _stencil(coefficients: list[float], nodes: int, sigma: float) -> coo_matrix:
