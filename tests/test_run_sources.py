@@ -106,6 +106,12 @@ def test_bad_mcap_frame_ids_are_refused_before_the_run(drive, tmp_path, capsys):
     assert not (tmp_path / "o").exists()
 
 
+def test_run_json_records_the_library_versions_its_trajectory_depends_on(drive):
+    versions = json.loads((drive[3] / "kitti" / "run.json").read_text())["versions"]
+    assert versions["opencv"] == cv2.__version__ and versions["numpy"] == np.__version__
+    assert set(versions) == {"flowvo", "opencv", "numpy", "torch"}
+
+
 def test_the_latency_is_chosen_and_recorded_and_refused_where_there_is_no_window(drive, tmp_path, capsys):
     root, _, frames, runs, kitti_poses = drive
     assert json.loads((runs / "kitti" / "run.json").read_text())["latency_frames"] == 5  # the default's

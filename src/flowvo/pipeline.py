@@ -24,6 +24,7 @@ from flowvo.odometry_covariance import records_covariances
 from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs, steps_csv_name
 from flowvo.steps_csv import write_steps_csv
 from flowvo.trajectory import Trajectory
+from flowvo.versions import library_versions
 
 if TYPE_CHECKING:
     from flowvo.stream import StreamResult
@@ -95,6 +96,7 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         "latency_frames": step.latency_frames,  # each pose is final this many frames after its own arrives
         "steps": steps_csv_name(source.name) if records is not None else None,
         "lengths_m": list(options.lengths_m),
+        "versions": library_versions(),  # results are comparable only between the same versions
     }
     if drive.camera_estimate is not None:
         summary["camera"]["estimate"] = drive.camera_estimate.record()
