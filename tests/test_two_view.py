@@ -210,13 +210,17 @@ def test_no_plane_when_no_road_point_is_left():
     assert trusted_road_plane(none, none, K, motion, min_parallax_px=1.0) is None
 
 
-def test_textured_points_pick_the_strongest_gradient_of_their_cells():
+def test_textured_points_pick_corners_not_straight_edges():
     image = np.full((188, 620), 20, np.uint8)
-    image[40:44, 100:104] = 255  # one bright square: its corners are the strongest gradients
-    image[120:, :] = np.random.default_rng(0).integers(1, 40, (68, 620))  # weak texture below
+    image[40:56, 100:116] = 255  # one bright square: its four corners are the most corner-like pixels
+    image[80:, 200:] = 120  # a long straight edge along row 80 (a strong gradient), with one corner at its end
+    image[130:, :] = np.random.default_rng(0).integers(1, 40, (58, 620))  # weak texture below
     points = textured_points(image, count=200)
     assert len(points) == 200 and points.min() >= 0 and (points < [620, 188]).all()
-    assert ((np.abs(points[:4, 0] - 101.5) <= 3) & (np.abs(points[:4, 1] - 41.5) <= 3)).all()
+    corners = np.array([[99.5, 39.5], [115.5, 39.5], [99.5, 55.5], [115.5, 55.5]])
+    assert (np.abs(corners[:, None] - points[None, :8]).max(axis=2).min(axis=1) <= 0.5).all()  # all among the first
+    on_edge = (np.abs(points[:, 1] - 79.5) <= 2) & (points[:, 0] > 210)
+    assert not on_edge.any()  # the weak texture's corners rank above every point of the straight edge
 
 
 def test_textured_points_keep_away_from_areas_without_image():

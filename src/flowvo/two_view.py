@@ -17,15 +17,20 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
+TENSOR_BLOCK_PX = 3  # the structure tensor's window (5 px: synthetic replays 08-10 1.88 against 1.35 %)
+
 
 def textured_points(image: np.ndarray, count: int = 600, cell_px: int = 8) -> np.ndarray:
-    """Where to track the motion: the strongest-gradient pixel of each ``cell_px`` cell of ``image``
-    (H, W) uint8 (textured pixels track reliably), the ``count`` strongest cells kept; (M, 2) float32
-    pixels, x right, y down."""
+    """Where to track the motion: the most corner-like pixel of each ``cell_px`` cell of ``image`` (H, W)
+    uint8, the ``count`` strongest cells kept; (M, 2) float32 pixels, x right, y down.
+
+    Corner-like: the smaller eigenvalue of the gradients' 3x3 structure tensor (Shi and Tomasi). Along a
+    straight edge Lucas-Kanade slides, and the strongest gradient of a cell mostly lies on one: with it,
+    half the tracks of real clip 01 did not return within 0.05 px when tracked back, and the chained
+    rotations drifted (synthetic replays 08-10: 0.0077 deg/m against 0.0047 with corners).
+    """
     h, w = image.shape
-    gx = cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3)
-    gy = cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3)
-    magnitude = gx * gx + gy * gy
+    magnitude = cv2.cornerMinEigenVal(image, TENSOR_BLOCK_PX, ksize=3)
     if image.min() == 0:  # the edge of an area without image would be tracked as a point that never moves
         magnitude[no_image_area(image)] = 0.0
     rows, cols = (h - 8) // cell_px, (w - 8) // cell_px
