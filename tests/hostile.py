@@ -4,9 +4,19 @@ failure is exactly one line on stderr naming what is wrong, with no traceback.""
 from __future__ import annotations
 
 import hashlib
+import signal
+import subprocess
 from pathlib import Path
 
 from flowvo.cli import main
+
+
+def interruptible(args: list[str], env: dict[str, str]) -> subprocess.Popen:
+    """``args`` started with pipes for stdout and stderr, as a process that Ctrl-C (SIGINT) interrupts even
+    where this one ignores SIGINT (pytest run as a background job inherits it ignored, and a Python child
+    then never raises KeyboardInterrupt: it ran to the end and exited 0)."""
+    return subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
 
 
 def cli(capsys, *args: object) -> tuple[int, str, str]:

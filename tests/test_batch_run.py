@@ -6,7 +6,6 @@ import json
 import os
 import shutil
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -14,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from batch_fleet import FRAMES, make_fleet, write_video
+from hostile import interruptible
 
 from flowvo.batch import run_batch
 from flowvo.batch.done import read_drive_outputs
@@ -196,9 +196,8 @@ def test_ctrl_c_exits_130_and_keeps_completed_drives_and_their_summary(fleet, tm
     write_video(long_video, fleet.kitti, "00", repeat=60)
     out = tmp_path / "out"
     env = {**os.environ, "PYTHONPATH": f"{SRC}{os.pathsep}{os.environ.get('PYTHONPATH', '')}"}
-    process = subprocess.Popen([sys.executable, "-m", "flowvo.cli", "-q", "batch", str(fleet.kitti / "sequences/00"),
-                                str(long_video), "--calib", str(fleet.calib), "--out", str(out), "--workers", "1"],
-                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+    process = interruptible([sys.executable, "-m", "flowvo.cli", "-q", "batch", str(fleet.kitti / "sequences/00"),
+                             str(long_video), "--calib", str(fleet.calib), "--out", str(out), "--workers", "1"], env)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and not list(out.glob("drives/*long.avi")) and process.poll() is None:
         time.sleep(0.02)
