@@ -1,5 +1,6 @@
 """Helpers of the hostile-input suite (tests/test_hostile_*.py): run the CLI in-process and check that a
-failure is exactly one line on stderr naming what is wrong, with no traceback."""
+failure is exactly one line on stderr naming what is wrong, with no traceback; start it as a process that
+Ctrl-C interrupts (the signal tests, and the batch's)."""
 
 from __future__ import annotations
 
