@@ -39,6 +39,7 @@ from flowvo.road_scale import (
     RoadPlaneTally,
     onward_road_homography,
     road_crop,
+    road_flow_within_reach,
     road_grid,
     road_homography,
     road_points_in_view,
@@ -70,7 +71,7 @@ TRACK_WINDOW_PX = 11  # Lucas-Kanade window: half the cost of 15 px windows, rot
 MIN_FRAME_WIDTH_PX = 128  # measured on 20 frames of clip 06 (23.6 m) resized: 128x90 px gave 24.0 m, 96x90
 # 29.7 m, 64x90 a standstill (too few road and tracked points to fit anything)
 DIS_REACH_PX = 12.0  # at the reference width: road motion DIS follows without a prediction; beyond, it
-# under-estimates it
+# under-estimates it (the near road decides: road_scale.road_flow_within_reach)
 KEY_ROAD_PX = DIS_REACH_PX / 2  # a step whose road moved less keeps its road key frame, so the road scale is
 # measured over a longer baseline (two such steps stay within DIS's reach;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
@@ -268,11 +269,10 @@ class FlowGeometryStep(WorkingFrames):
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        road_moved_px = float(np.median(np.linalg.norm(flow.road_next - flow.road_prev, axis=1))) \
-            if len(flow.road_prev) else 0.0
+        road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
+        road_moved_px = float(np.median(road_motion_px)) if len(road_motion_px) else 0.0
         key_is_previous = flow.key_prev is None
-        # the road's flow was measured well: from a prediction (this step's flow started from it), or within reach
-        road_measured = self._road_prediction is not None or road_moved_px < self.dis_reach_px
+        road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, self._road_prediction is not None)
         key_frame = previous if key_is_previous else self._road_key
         key_time_s = times_s[0] if key_is_previous else self._key_time_s
         key_steps = 1 if key_is_previous else self._key_steps + 1
