@@ -299,13 +299,15 @@ def test_a_road_normal_blends_each_plane_by_the_variances_and_takes_the_distance
     assert abs(_pitch_rad(far) - _pitch_rad(tilted)) < 0.01 * np.radians(1.0)  # 5x the depth: 625x the variance
 
 
-def test_road_flow_is_within_reach_by_its_near_road_not_its_median_point():
+def test_one_steps_road_flow_is_within_reach_by_its_near_road_a_spans_by_its_median_point():
     far_to_near = np.linspace(2.0, 20.0, 100)  # road points' motions (px): the near road moves most
     assert np.median(far_to_near) < 12.0 <= np.percentile(far_to_near, 90)
     assert not road_flow_within_reach(far_to_near, 12.0, predicted=False)  # the near road was beyond DIS's reach
     assert road_flow_within_reach(far_to_near, 12.0, predicted=True)  # DIS measured only what the prediction missed
     assert road_flow_within_reach(far_to_near / 2, 12.0, predicted=False)
     assert not road_flow_within_reach(np.zeros(0), 12.0, predicted=False)
+    assert road_flow_within_reach(far_to_near, 12.0, predicted=False, steps=2)  # a key frame's span: the median
+    assert not road_flow_within_reach(far_to_near * 2, 12.0, predicted=False, steps=2)
 
 
 def test_the_road_normal_is_carried_by_the_camera_rotation_and_kept_only_from_predicted_road():

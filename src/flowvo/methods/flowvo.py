@@ -272,10 +272,11 @@ class FlowGeometryStep(WorkingFrames):
         road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
         road_moved_px = float(np.median(road_motion_px)) if len(road_motion_px) else 0.0
         key_is_previous = flow.key_prev is None
-        road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, self._road_prediction is not None)
         key_frame = previous if key_is_previous else self._road_key
         key_time_s = times_s[0] if key_is_previous else self._key_time_s
         key_steps = 1 if key_is_previous else self._key_steps + 1
+        road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, self._road_prediction is not None,
+                                               key_steps)
         self._road_key, self._road_prediction = None, None  # by default the next step starts from this frame
         still = road_moved_px / key_steps < self.still_flow_px and (not len(moved_px) or
                                                                   np.median(moved_px) < self.still_flow_px)
