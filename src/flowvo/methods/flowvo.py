@@ -71,7 +71,7 @@ TRACK_WINDOW_PX = 11  # Lucas-Kanade window: half the cost of 15 px windows, rot
 MIN_FRAME_WIDTH_PX = 128  # measured on 20 frames of clip 06 (23.6 m) resized: 128x90 px gave 24.0 m, 96x90
 # 29.7 m, 64x90 a standstill (too few road and tracked points to fit anything)
 DIS_REACH_PX = 12.0  # at the reference width: road motion DIS follows without a prediction; beyond, it
-# under-estimates it (the near road decides: road_scale.road_flow_within_reach)
+# under-estimates it (one step's near road decides, a key frame's span its median: road_scale.road_flow_within_reach)
 KEY_ROAD_PX = DIS_REACH_PX / 2  # a step whose road moved less keeps its road key frame, so the road scale is
 # measured over a longer baseline (two such steps stay within DIS's reach;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
