@@ -109,18 +109,18 @@ def test_lens_that_folds_over_the_image_is_refused(tmp_path, capsys):
     assert not (tmp_path / "cli").exists()
 
 
-def _t_err_percent(root, camera: SynthCamera) -> float:
-    """The default method's t_err on seed 4's 20 s drive (164 m, 496x150) seen by ``camera``."""
+def _metrics(root, camera: SynthCamera) -> dict:
+    """The default method's metrics on seed 4's 20 s drive (164 m, 496x150) seen by ``camera``."""
     frames = (DRIVE_PATH_FRAMES - 1) * round(camera.fps / 10) + 1
     synthesize(root / "data", ["00"], seed=4, frames=frames, scale=0.4, max_speed_mps=12.0, workers=2, camera=camera)
     summary = run(RunOptions(out=str(root / "run"), data=str(root / "data"), sequence="00",
                              lengths_m=(25.0, 50.0, 75.0, 100.0)))
-    return summary["metrics"]["t_err_percent"]
+    return summary["metrics"]
 
 
 @pytest.fixture(scope="module")
-def kitti_camera_t_err(tmp_path_factory) -> float:
-    return _t_err_percent(tmp_path_factory.mktemp("kitti_camera"), SynthCamera())
+def kitti_camera_metrics(tmp_path_factory) -> dict:
+    return _metrics(tmp_path_factory.mktemp("kitti_camera"), SynthCamera())
 
 
 @pytest.mark.slow
@@ -128,19 +128,24 @@ def kitti_camera_t_err(tmp_path_factory) -> float:
     pytest.param(SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL), id="10fps"),
     pytest.param(PHONE_LIKE, id="30fps"),  # needs the road key frames: each step's road flow is 3x smaller
 ])
-def test_default_method_on_a_low_wide_distorted_camera_is_within_1_3x_of_kitti_camera(camera, kitti_camera_t_err,
+def test_default_method_on_a_low_wide_distorted_camera_is_within_1_3x_of_kitti_camera(camera, kitti_camera_metrics,
                                                                                        tmp_path):
-    t_err = _t_err_percent(tmp_path, camera)
-    assert t_err <= 1.3 * kitti_camera_t_err, f"t_err {t_err:.2f} % against {kitti_camera_t_err:.2f} % (KITTI's)"
+    """t_err and r_err: at 30 frames/s each rotation is measured over 0.1 s (flowvo.rotation_key); chained from
+    pairs, r_err read 0.0213 against the KITTI camera's 0.0067 deg/m (t_err 1.32 against 1.35 %)."""
+    metrics = _metrics(tmp_path, camera)
+    for error in ("t_err_percent", "r_err_deg_per_m"):
+        assert metrics[error] <= 1.3 * kitti_camera_metrics[error], \
+            f"{error} {metrics[error]:.4g} against {kitti_camera_metrics[error]:.4g} (KITTI's)"
 
 
 @pytest.mark.slow
-def test_default_method_on_a_camera_pitched_8_degrees_down_is_within_1_3x_of_kitti_camera(kitti_camera_t_err,
+def test_default_method_on_a_camera_pitched_8_degrees_down_is_within_1_3x_of_kitti_camera(kitti_camera_metrics,
                                                                                           tmp_path):
     """The render's calib.txt states the pitch, so the road plane is found about the road's normal (run as if
     level, every road plane is 8 degrees off the camera's down axis and refused: 47 %, docs/camera.md)."""
-    t_err = _t_err_percent(tmp_path, SynthCamera(pitch_deg=8.0))
-    assert t_err <= 1.3 * kitti_camera_t_err, f"t_err {t_err:.2f} % against {kitti_camera_t_err:.2f} % (KITTI's)"
+    t_err = _metrics(tmp_path, SynthCamera(pitch_deg=8.0))["t_err_percent"]
+    kitti_t_err = kitti_camera_metrics["t_err_percent"]
+    assert t_err <= 1.3 * kitti_t_err, f"t_err {t_err:.2f} % against {kitti_t_err:.2f} % (KITTI's)"
     planes = json.loads((tmp_path / "run" / "run.json").read_text())["road_planes"]
     assert planes["tilted_median_pitch_deg"] is None and planes["trusted"] > 100  # no hint: the pitch was given
     summary = run(RunOptions(out=str(tmp_path / "level"), data=str(tmp_path / "data"), sequence="00",

@@ -184,6 +184,20 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     return EssentialMotion(R, -R @ direction, inliers)
 
 
+def direction_given_rotation(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, R: np.ndarray,
+                             near: np.ndarray) -> np.ndarray:
+    """The unit translation direction ``t`` (second camera's frame) that, with the rotation ``R``
+    (``R_next_prev``), best explains correspondences (N, 2): least squares of each track's distance to its
+    epipolar line (pixels), the lines' scale taken from ``near`` (a unit direction close to the answer), which
+    also gives the sign. The constraint ``r2 . (t x R r1) = t . (R r1 x r2) = 0`` is linear in ``t``."""
+    rotated = _rays(points_prev, K) @ R.T
+    normals = np.cross(rotated, _rays(points_next, K))  # t . normal: the line's value at the second point
+    lines = np.cross(near, rotated) @ _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
+    weighted = normals / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12)[:, None]  # rows in pixels
+    t = np.linalg.svd(weighted, full_matrices=False)[2][-1]
+    return t if t @ near >= 0 else -t
+
+
 def _least_squares_rotation(residuals: Callable[[np.ndarray], np.ndarray], R: np.ndarray, rows: np.ndarray
                             ) -> np.ndarray:
     """The rotation near ``R`` (a small rotation applied after it) that minimises the squares of

@@ -46,12 +46,14 @@ from flowvo.road_scale import (
     road_room,
     trusted_road_plane,
 )
+from flowvo.rotation_key import RotationKeyFrame
 from flowvo.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.speed_prior import SpeedPrior
 from flowvo.travel_direction import TravelDirection
 from flowvo.two_view import (
     EssentialMotion,
+    direction_given_rotation,
     essential_motion,
     follow_flow,
     lucas_kanade,
@@ -87,6 +89,8 @@ MIN_ROAD_PARALLAX_PX = 1.0  # at the reference width: a road whose points moved 
 # ten of them) since the road key frame has lost its flow (no texture; synthetic replay 10, 0.3-1.5 px at 0.5-0.9 m
 # a step: flowvo-geometry 28.3 % without this gate, 6.9 % with it); the median instead of the 90th percentile
 # also rejected real clip 07's start at walking pace, where the far rows barely move
+MAX_KEY_ROTATION_OFF_DEG = 0.5  # a step rotation from the rotation key frame further off the pair's is a failed fit
+# (the pair's rotations are 0.005-0.015 degrees off the truth, rms, on the synthetic drives)
 ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (LK tracks are sub-pixel)
 
 
@@ -112,7 +116,9 @@ class GeometryFlow:
     ``road_prev`` -> ``road_next`` (R, 2) road-band points that stay in view, moved by the dense flow of the road crop
     from the road key frame (the previous frame, or an earlier one while the road moves little) to the
     current one, with ``key_prev`` -> ``key_next`` the key frame's textured points tracked into the current
-    frame (None when the key frame is the previous frame)."""
+    frame (None when the key frame is the previous frame), and ``rotation_key_prev`` -> ``rotation_key_next`` the
+    rotation key frame's (:mod:`flowvo.rotation_key`; None when the step's rotation is measured from the
+    previous frame)."""
 
     motion_prev: np.ndarray
     motion_next: np.ndarray
@@ -121,6 +127,8 @@ class GeometryFlow:
     current: GeometryFrame
     key_prev: np.ndarray | None = None
     key_next: np.ndarray | None = None
+    rotation_key_prev: np.ndarray | None = None
+    rotation_key_next: np.ndarray | None = None
 
 
 class FlowGeometryStep(WorkingFrames):
@@ -183,6 +191,8 @@ class FlowGeometryStep(WorkingFrames):
         self.dis_reach_px = DIS_REACH_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self._road_key: GeometryFrame | None = None  # where the next step's road flow starts (None: previous)
         self._key_time_s, self._key_steps = 0.0, 0
+        self.rotation_key: RotationKeyFrame[GeometryFrame] = RotationKeyFrame()
+        self.rotation_key_steps = 0  # steps whose rotation was measured from an earlier key frame
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
@@ -211,16 +221,21 @@ class FlowGeometryStep(WorkingFrames):
         return self._previous
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
-        """Point tracks over the whole frame (from ``prepare``) and the dense flow of the road crop from the
-        road key frame (see :class:`GeometryFlow`)."""
+        """Point tracks over the whole frame (from ``prepare``), the dense flow of the road crop from the
+        road key frame and the key frames' tracks (see :class:`GeometryFlow`)."""
         motion = self._undistort(current.tracked_prev), self._undistort(current.tracked_next)
-        key = self._road_key
-        if key is None or key is previous:
-            return GeometryFlow(*motion, *self.road_flow(previous.image, current.image, self._road_prediction),
-                                current)
+        key = previous if self._road_key is None else self._road_key
+        road = self.road_flow(key.image, current.image, self._road_prediction)
+        key_tracks = (None, None) if key is previous else self._tracks_from(key, current)
+        rotation_key = self.rotation_key.frame
+        rotation_tracks = (None, None) if rotation_key is None else \
+            key_tracks if rotation_key is key else self._tracks_from(rotation_key, current)
+        return GeometryFlow(*motion, *road, current, *key_tracks, *rotation_tracks)
+
+    def _tracks_from(self, key: GeometryFrame, current: GeometryFrame) -> tuple[np.ndarray, np.ndarray]:
+        """The key frame's textured points tracked into ``current``: where they were and went, undistorted."""
         key_prev, key_next = track_points(key.image, current.image, key.textured_px, TRACK_WINDOW_PX)
-        return GeometryFlow(*motion, *self.road_flow(key.image, current.image, self._road_prediction), current,
-                            self._undistort(key_prev), self._undistort(key_next))
+        return self._undistort(key_prev), self._undistort(key_next)
 
     def road_flow(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None
                   ) -> tuple[np.ndarray, np.ndarray]:
@@ -281,6 +296,7 @@ class FlowGeometryStep(WorkingFrames):
         still = road_moved_px / key_steps < self.still_flow_px and (not len(moved_px) or
                                                                   np.median(moved_px) < self.still_flow_px)
         if still and self.speed.could_stand_at(time_s):
+            self.rotation_key.forget()
             self.speed.stop(time_s)  # the road and the scene stand still (distant points alone can mislead)
             self.last_motion = np.eye(4)
             return self.last_motion
@@ -289,12 +305,16 @@ class FlowGeometryStep(WorkingFrames):
                                                   threshold_px=self.threshold_px)
         if fit is None:  # degenerate: keep the last motion (constant velocity)
             self.road_normal.forget()
+            self.rotation_key.forget()
             T_next_prev = invert_se3(self.last_motion)
             length_m = float(np.linalg.norm(T_next_prev[:3, 3]))
             self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
                                          dt_s)
             return self.last_motion
+        if flow.rotation_key_prev is not None:
+            fit = self._over_rotation_key(fit, flow)
         fit = self._travel_checked(fit, flow)
+        self.rotation_key.advance((times_s[0], previous), time_s, fit.R)
         key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
                                                                  threshold_px=self.threshold_px)
         self.road_normal.advance(fit.R, dt_s)
@@ -334,6 +354,23 @@ class FlowGeometryStep(WorkingFrames):
                                          *((None, 0.0) if ratio is None else ratio), road_steps=key_steps)
             self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
+
+    def _over_rotation_key(self, fit: EssentialMotion, flow: GeometryFlow) -> EssentialMotion:
+        """The step's motion with its rotation measured from the rotation key frame (:mod:`flowvo.rotation_key`)
+        and its direction fitted again under that rotation to the pair's inlier tracks; the pair's ``fit`` where
+        the key frame's tracks give no fit or one whose step rotation lies over ``MAX_KEY_ROTATION_OFF_DEG`` off
+        the pair's."""
+        key_fit = essential_motion(flow.rotation_key_prev, flow.rotation_key_next, self.K,
+                                   threshold_px=self.threshold_px)
+        if key_fit is None:
+            return fit
+        R = self.rotation_key.step_rotation(key_fit.R)
+        if np.degrees(np.arccos(np.clip((np.trace(R @ fit.R.T) - 1) / 2, -1.0, 1.0))) > MAX_KEY_ROTATION_OFF_DEG:
+            return fit
+        inliers = fit.inliers
+        self.rotation_key_steps += 1
+        return EssentialMotion(R, direction_given_rotation(flow.motion_prev[inliers], flow.motion_next[inliers], self.K,
+                                                           R, fit.t_dir), inliers)
 
     def _travel_checked(self, fit: EssentialMotion, flow: GeometryFlow) -> EssentialMotion:
         """The step's motion up to scale: the fit, or, where its direction of travel lies further off the forward
@@ -381,12 +418,14 @@ class FlowGeometryStep(WorkingFrames):
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
         planes fared (:class:`RoadPlaneTally`), how many steps at speed took the last direction of travel
-        instead of the fit's (:mod:`flowvo.travel_direction`), the window's latency (frames: how late each
-        motion is final), how many steps each kind of measurement reached, the median standard deviation of a
-        step's log length and how many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
+        instead of the fit's (:mod:`flowvo.travel_direction`), how many steps' rotations were measured from an
+        earlier key frame (:mod:`flowvo.rotation_key`), the window's latency (frames: how late each motion is
+        final), how many steps each kind of measurement reached, the median standard deviation of a step's log
+        length and how many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_tally.record()
         kept["direction_kept_steps"] = self.travel.kept_steps
+        kept["rotation_key_steps"] = self.rotation_key_steps
         if self.window is not None:
             records = self.window.records
             sigmas = [record.log_sigma for record in records if record.log_sigma is not None]
