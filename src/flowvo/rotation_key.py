@@ -1,10 +1,10 @@
-"""Rotations measured over up to 0.1 s: a rotation key frame for frame rates above 10 Hz.
+"""Rotations measured over up to 0.1 s: a rotation key frame for frame rates above 13 Hz.
 
 Each Lucas-Kanade track carries an error of its own that does not shrink with the motion, so a rotation
 chained from pairs drifts with the number of steps, not with the distance: on one synthetic drive (exact
 truth, 189 m) the default method's r_err was 0.0129 deg/m at 30 frames/s against 0.0052 at 10. Here a step's
 rotation is the rotation fitted from a key frame to this frame after the one from the key frame to the
-previous frame, so the errors of the fits within a key frame's span do not add up: 0.0053 deg/m at
+previous frame, so the errors of the fits within a key frame's span do not add up: 0.0050 deg/m at
 30 frames/s. A key frame is kept while younger than ``min_span_s``; at 10 frames/s and below every step is
 longer, the key frame is always the previous frame and nothing changes.
 

@@ -30,7 +30,7 @@ import numpy as np
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
-from flowvo.geometry import invert_se3
+from flowvo.geometry import invert_se3, so3_log
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
 from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
@@ -365,7 +365,7 @@ class FlowGeometryStep(WorkingFrames):
         if key_fit is None:
             return fit
         R = self.rotation_key.step_rotation(key_fit.R)
-        if np.degrees(np.arccos(np.clip((np.trace(R @ fit.R.T) - 1) / 2, -1.0, 1.0))) > MAX_KEY_ROTATION_OFF_DEG:
+        if np.degrees(np.linalg.norm(so3_log(R @ fit.R.T))) > MAX_KEY_ROTATION_OFF_DEG:
             return fit
         inliers = fit.inliers
         self.rotation_key_steps += 1
