@@ -311,12 +311,15 @@ class FlowGeometryStep(WorkingFrames):
             self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
                                          dt_s)
             return self.last_motion
-        if flow.rotation_key_prev is not None:
-            fit = self._over_rotation_key(fit, flow)
+        road_key_fit = None if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
+                                                                      threshold_px=self.threshold_px)
+        if flow.rotation_key_prev is not None:  # the same key frame's tracks share the road key's fit
+            fit = self._over_rotation_key(fit, road_key_fit if flow.rotation_key_prev is flow.key_prev else
+                                          essential_motion(flow.rotation_key_prev, flow.rotation_key_next, self.K,
+                                                           threshold_px=self.threshold_px), flow)
         fit = self._travel_checked(fit, flow)
         self.rotation_key.advance((times_s[0], previous), time_s, fit.R)
-        key_fit = fit if key_is_previous else essential_motion(flow.key_prev, flow.key_next, self.K,
-                                                                 threshold_px=self.threshold_px)
+        key_fit = fit if key_is_previous else road_key_fit
         self.road_normal.advance(fit.R, dt_s)
         plane = None if key_fit is None else trusted_road_plane(
             flow.road_prev, flow.road_next, self.K, key_fit, min_parallax_px=self.min_road_parallax_px,
@@ -355,13 +358,12 @@ class FlowGeometryStep(WorkingFrames):
             self._last_step = fit, flow.motion_prev, flow.motion_next
         return self.last_motion
 
-    def _over_rotation_key(self, fit: EssentialMotion, flow: GeometryFlow) -> EssentialMotion:
-        """The step's motion with its rotation measured from the rotation key frame (:mod:`flowvo.rotation_key`)
-        and its direction fitted again under that rotation to the pair's inlier tracks; the pair's ``fit`` where
-        the key frame's tracks give no fit or one whose step rotation lies over ``MAX_KEY_ROTATION_OFF_DEG`` off
-        the pair's."""
-        key_fit = essential_motion(flow.rotation_key_prev, flow.rotation_key_next, self.K,
-                                   threshold_px=self.threshold_px)
+    def _over_rotation_key(self, fit: EssentialMotion, key_fit: EssentialMotion | None, flow: GeometryFlow
+                           ) -> EssentialMotion:
+        """The step's motion with its rotation measured from the rotation key frame (:mod:`flowvo.rotation_key`;
+        ``key_fit``: the fit of the key frame's tracks into the current frame) and its direction fitted again
+        under that rotation to the pair's inlier tracks; the pair's ``fit`` where the key frame's tracks give no
+        fit or one whose step rotation lies over ``MAX_KEY_ROTATION_OFF_DEG`` off the pair's."""
         if key_fit is None:
             return fit
         R = self.rotation_key.step_rotation(key_fit.R)
