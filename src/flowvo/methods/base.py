@@ -8,8 +8,8 @@ camera's frame, metres), called once per step in frame order, so it may keep his
 stacked network, the speed prior). Every caller (run, bench, the demo; KITTI folders, video, bags)
 therefore runs exactly the same inference. ``measured()``, called right after ``motion`` in the same
 thread, returns what the window stage needs of that step; ``refine(time_s, motion, measured)``, the
-window stage (a stream runs it in the caller's thread, beside the reader and motion threads, in frame
-order), returns the motions that are
+window stage (a stream runs it in the motion thread after each step's ``motion``, in frame order),
+returns the motions that are
 final, ``latency_frames`` steps late (at once for the methods without a window, :class:`NoWindow`);
 ``flush()`` returns the rest at the end of the drive; ``step_records()``, what became of each final step
 (the windowed methods: :class:`flowvo.scale_window.StepRecord`; None for the others).
