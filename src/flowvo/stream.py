@@ -177,8 +177,8 @@ def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometrySt
                               wall_start)
             reader = _Stage(_read(frames, step, max_frames))
             motions = _Stage(_windowed(_motions(reader, step), step))  # the window stage in the motion thread:
-            # with a third thread of its own, the default method streamed at 0.32 of decoding instead of 0.345
-            # (median of six paired bench runs each, clip 07): one thread fewer contending for the GIL
+            # in the caller's thread, a third one running Python beside these two, the default method streamed at
+            # 0.32 of decoding instead of 0.345 (clip 07, median of six paired bench runs each)
             return _chain(motions, [reader, motions], total, label, wall_start)
     finally:
         cv2.setNumThreads(opencv_threads)
