@@ -136,9 +136,9 @@ def _motions(prepared_frames: Iterable[tuple[float, Any, float]],
 
 def _windowed(motions: Iterable[tuple[float, np.ndarray | None, Any, dict[str, float]]],
               step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, dict[str, float]]]:
-    """The step's window stage over the motions (in the motion thread; without overlap, the caller's): ``(time_s, final motion, seconds
-    per stage)`` in frame order, each motion ``step.latency_frames`` late; the seconds of frames whose
-    motion is not final yet come with the next one yielded."""
+    """The step's window stage over the motions (in the motion thread; without overlap, the caller's):
+    ``(time_s, final motion, seconds per stage)`` in frame order, each motion ``step.latency_frames`` late;
+    the seconds of frames whose motion is not final yet come with the next one yielded."""
     pending: dict[str, float] = {}
     for time_s, motion, measured, seconds in motions:
         for stage, value in seconds.items():
