@@ -94,14 +94,15 @@ def test_at_speed_a_fitted_direction_no_car_can_take_gives_way_to_the_last_one(s
     assert step.summary()["direction_kept_steps"] == kept
 
 
-WRONG_R = so3_exp(np.array([0.0, 0.05, 0.0]))  # a sideways fit's rotation, 1.7 degrees off a 0.02 rad turn
+WRONG_R = so3_exp(np.array([0.0, 0.03, 0.0]))  # a sideways fit's rotation, 0.6 degrees off a 0.02 rad turn (a yaw
+# rate that no yaw rate check refuses after the first step's)
 
 
 def at_speed_with_sideways_fits(monkeypatch):
-    """A step after a forward 1 m step at 10 m/s whose essential fits from now on come back sideways (every
-    track an inlier) with rotation ``WRONG_R``."""
+    """A step after a forward 1 m step at 10 m/s turning 0.02 rad whose essential fits from now on come back
+    sideways (every track an inlier) with rotation ``WRONG_R``."""
     step = FlowGeometryStep(CAMERA, HW)
-    step.motion((0.0, 0.1), None, step_flow(step, 1.0))
+    step.motion((0.0, 0.1), None, step_flow(step, 1.0, yaw_rad=0.02))
 
     def sideways_fit(points_prev, points_next, K, threshold_px):
         return EssentialMotion(WRONG_R, -WRONG_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
@@ -111,13 +112,28 @@ def at_speed_with_sideways_fits(monkeypatch):
 
 
 def test_a_refused_direction_takes_the_rotation_the_tracks_give_along_the_last_direction(monkeypatch):
-    """At 10 m/s the fit of a forward step turning 0.02 rad comes back sideways with its rotation 1.7 degrees
+    """At 10 m/s the fit of a forward step turning 0.02 rad comes back sideways with its rotation 0.6 degrees
     off (as past a crest): the step goes forward, with the rotation the tracks give along that direction."""
     step = at_speed_with_sideways_fits(monkeypatch)
     turned = step.motion((0.1, 0.2), None, step_flow(step, 1.0, yaw_rad=0.02))
     np.testing.assert_allclose(turned[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-6)  # float32 tracks
     np.testing.assert_allclose(turned[:3, 3] / np.linalg.norm(turned[:3, 3]), [0.0, 0.0, 1.0], atol=1e-6)
     assert step.summary()["direction_kept_steps"] == 1
+
+
+def test_a_fit_whose_yaw_rate_jumps_takes_the_last_yaw_rate_and_its_direction_from_the_tracks(monkeypatch):
+    """At 3 m/s (no direction check) a step turning 0.01 rad, then one whose fit turns 0.04 rad (1.7 degrees more
+    in 0.1 s, as a failed fit at low speed): the step takes the last yaw rate and the direction its tracks give
+    under it; the run counts the step."""
+    step = FlowGeometryStep(CAMERA, HW)
+    step.motion((0.0, 0.1), None, step_flow(step, 0.3))
+    overturned = so3_exp(np.array([0.0, 0.04, 0.0]))
+    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", lambda points_prev, points_next, K, threshold_px:
+                        EssentialMotion(overturned, np.array([0.0, 0.0, -1.0]), np.ones(len(points_prev), bool)))
+    gated = step.motion((0.1, 0.2), None, step_flow(step, 0.3))
+    np.testing.assert_allclose(gated[:3, :3], so3_exp(np.array([0.0, 0.01, 0.0])).T, atol=1e-6)
+    np.testing.assert_allclose(gated[:3, 3] / np.linalg.norm(gated[:3, 3]), [0.0, 0.0, 1.0], atol=1e-5)
+    assert step.summary()["yaw_refused_steps"] == 1
 
 
 def test_a_refused_direction_keeps_the_fits_rotation_where_no_rotation_along_the_last_direction_fits(monkeypatch):
@@ -198,7 +214,7 @@ def test_the_window_measures_each_step_against_the_last_through_the_continued_tr
     step = FlowGeometryStep(CAMERA, HW, window=ScaleWindow())
     rng = np.random.default_rng(5)
     scene_a = np.c_[rng.uniform(-15, 15, 300), rng.uniform(-5, 1.0, 300), rng.uniform(8, 50, 300)]
-    moves = [(0.01, 0.8), (-0.02, 1.1)]  # (yaw rad, metres) of a -> b and b -> c
+    moves = [(0.01, 0.8), (0.005, 1.1)]  # (yaw rad, metres) of a -> b and b -> c
     scenes = [scene_a]
     for yaw, length in moves:
         R = so3_exp(np.array([0.0, yaw, 0.0]))
@@ -207,7 +223,7 @@ def test_the_window_measures_each_step_against_the_last_through_the_continued_tr
     rows = np.arange(0, 300, 6)
     frame_b = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, a, b)
     frame_c = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, b, c, rows, c[rows])
-    road_ab, road_bc = step_flow(step, 0.8, 0.01), step_flow(step, 1.1, -0.02)
+    road_ab, road_bc = step_flow(step, 0.8, 0.01), step_flow(step, 1.1, 0.005)
     step.motion((0.0, 0.1), None, GeometryFlow(a, b, road_ab.road_prev, road_ab.road_next, frame_b))
     assert step._step_scale.ratio is None and step._step_scale.road_m == pytest.approx(0.8, rel=1e-4)
     step.motion((0.1, 0.2), frame_b, GeometryFlow(b, c, road_bc.road_prev, road_bc.road_next, frame_c))

@@ -30,7 +30,7 @@ import numpy as np
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
-from flowvo.geometry import invert_se3, so3_log
+from flowvo.geometry import invert_se3, so3_exp, so3_log
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
 from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
@@ -62,6 +62,7 @@ from flowvo.two_view import (
     textured_points,
     track_points,
 )
+from flowvo.yaw_rate import YawRateCheck
 
 DEFAULT_ROAD_FLOW_METHOD = "dis-road"  # DIS down to the working resolution (the presets' road flow, one pyramid
 # level short, made every step 3-6 % short on real KITTI), lighter where that cost nothing (flow.classical)
@@ -178,6 +179,8 @@ class FlowGeometryStep(WorkingFrames):
         self.speed = SpeedPrior()
         forward = np.array([0.0, 0.0, 1.0])  # along the road: a pitched camera's is turned by its pitch
         self.travel = TravelDirection(forward if self.levelling is None else self.levelling.T @ forward)
+        up = np.array([0.0, 1.0, 0.0])  # the car's vertical axis (y down): yaw turns about it
+        self.yaw_rate = YawRateCheck(up if self.levelling is None else self.levelling.T @ up)
         self.road_normal = RoadNormal()
         self.last_motion = np.eye(4)
         # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios
@@ -297,6 +300,7 @@ class FlowGeometryStep(WorkingFrames):
                                                                   np.median(moved_px) < self.still_flow_px)
         if still and self.speed.could_stand_at(time_s):
             self.rotation_key.forget()
+            self.yaw_rate.forget()
             self.speed.stop(time_s)  # the road and the scene stand still (distant points alone can mislead)
             self.last_motion = np.eye(4)
             return self.last_motion
@@ -306,6 +310,7 @@ class FlowGeometryStep(WorkingFrames):
         if fit is None:  # degenerate: keep the last motion (constant velocity)
             self.road_normal.forget()
             self.rotation_key.forget()
+            self.yaw_rate.forget()
             T_next_prev = invert_se3(self.last_motion)
             length_m = float(np.linalg.norm(T_next_prev[:3, 3]))
             self._step_scale = StepScale(T_next_prev[:3, :3], T_next_prev[:3, 3] / max(length_m, 1e-12), length_m,
@@ -317,7 +322,7 @@ class FlowGeometryStep(WorkingFrames):
             fit = self._over_rotation_key(fit, road_key_fit if flow.rotation_key_prev is flow.key_prev else
                                           essential_motion(flow.rotation_key_prev, flow.rotation_key_next, self.K,
                                                            threshold_px=self.threshold_px), flow)
-        fit = self._travel_checked(fit, flow)
+        fit = self._travel_checked(self._yaw_checked(fit, flow, dt_s), flow)
         self.rotation_key.advance((times_s[0], previous), time_s, fit.R)
         key_fit = fit if key_is_previous else road_key_fit
         self.road_normal.advance(fit.R, dt_s)
@@ -386,6 +391,18 @@ class FlowGeometryStep(WorkingFrames):
         along = motion_along(flow.motion_prev, flow.motion_next, self.K, taken, fit.R, self.threshold_px)
         return along if along is not None else EssentialMotion(fit.R, -fit.R @ taken, fit.inliers)
 
+    def _yaw_checked(self, fit: EssentialMotion, flow: GeometryFlow, dt_s: float) -> EssentialMotion:
+        """The step's motion up to scale: the fit, or, where its yaw rate jumped further from the last one taken
+        than a car's can below 6 m/s (:mod:`flowvo.yaw_rate`: a failed fit), the last yaw rate's rotation with the
+        direction fitted again under it to the pair's inlier tracks."""
+        rotation = so3_log(fit.R)
+        taken = self.yaw_rate.checked(rotation, dt_s, self.speed.last_speed_mps)
+        if taken is rotation:
+            return fit
+        R, inliers = so3_exp(taken), fit.inliers
+        return EssentialMotion(R, direction_given_rotation(flow.motion_prev[inliers], flow.motion_next[inliers], self.K,
+                                                           R, fit.t_dir), inliers)
+
     def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
                       fit: EssentialMotion) -> LengthRatio | None:
         """This step's length over the last one's (:mod:`flowvo.scale_propagation`), from the last step's
@@ -420,13 +437,15 @@ class FlowGeometryStep(WorkingFrames):
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
         planes fared (:class:`RoadPlaneTally`), how many steps at speed took the last direction of travel
-        instead of the fit's (:mod:`flowvo.travel_direction`), how many steps' rotations were measured from an
-        earlier key frame (:mod:`flowvo.rotation_key`), the window's latency (frames: how late each motion is
-        final), how many steps each kind of measurement reached, the median standard deviation of a step's log
-        length and how many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
+        instead of the fit's (:mod:`flowvo.travel_direction`), how many took the last yaw rate instead of the
+        fit's (:mod:`flowvo.yaw_rate`), how many steps' rotations were measured from an earlier key frame
+        (:mod:`flowvo.rotation_key`), the window's latency (frames: how late each motion is final), how many
+        steps each kind of measurement reached, the median standard deviation of a step's log length and how
+        many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_tally.record()
         kept["direction_kept_steps"] = self.travel.kept_steps
+        kept["yaw_refused_steps"] = self.yaw_rate.refused_steps
         kept["rotation_key_steps"] = self.rotation_key_steps
         if self.window is not None:
             records = self.window.records
