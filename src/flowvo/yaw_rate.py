@@ -2,14 +2,14 @@
 than a car can turn its wheel is refused for the last yaw rate taken.
 
 At low speed the essential fit's yaw trades against a sideways direction of travel, and now and then it
-picks the wrong pair: on the synthetic replay of KITTI 08 single steps at 0.7-3 m/s (and one at 6 m/s in a
-turn) turned 0.35-1.4 degrees too far while their neighbours were within 0.05 degrees of the truth. A car's
+picks the wrong pair: on the synthetic replay of KITTI 08 single steps at 0.7-3 m/s (and three at 6 m/s in
+a turn) turned 0.3-1.4 degrees too far while their neighbours were within 0.05 degrees of the truth. A car's
 yaw rate changes at most by about 60 deg/s^2 times the step's duration: KITTI's ground truth 01-10 (10 Hz)
 changes its yaw by at most 0.12-0.76 degrees from one step to the next (99.9th percentiles 0.12-0.45; 00 has
 seven steps of 0.6-2.5), so a change of more than ``60 deg/s^2 * dt^2`` (0.6 degrees at 10 Hz) is taken for a
-failed fit. Such a step takes the
-last yaw rate taken (its whole rotation, at that rate); where the next step's rate agrees with the refused
-one rather than with the last taken, the change was real (it held), and that rate is taken from then on.
+failed fit. Such a step takes the last yaw rate taken (its whole rotation, at that rate); where the next
+step's rate agrees with the refused one rather than with the last taken, the change was real (it held), and
+that rate is taken from then on.
 At high frame rates the steps' own scatter sets the bound instead (``min_change_deg``). Only below 6 m/s:
 faster, the fit's yaw is well conditioned and the direction of travel is checked instead
 (:mod:`flowvo.travel_direction`), and a synthetic path may turn faster than a car (the demo's drive, at
@@ -21,8 +21,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowvo.travel_direction import MIN_SPEED_MPS as DIRECTION_CHECKED_FROM_MPS
+
 MAX_YAW_ACCELERATION_DEG_S2 = 60.0  # module docstring: 0.6 degrees a step at 10 Hz
-MAX_SPEED_MPS = 6.0  # checked below this speed only (module docstring)
+MAX_SPEED_MPS = DIRECTION_CHECKED_FROM_MPS  # checked below the speed from which the direction is (6 m/s)
 MIN_YAW_CHANGE_DEG = 0.2  # a step's yaw change never refused below this: at 30 frames/s the bound above is
 # 0.07 degrees, within the fits' own scatter (generated drive at 30 frames/s: r_err 0.0050 -> 0.0060 deg/m
 # without this floor)
