@@ -9,12 +9,12 @@ changes its yaw by at most 0.12-0.76 degrees from one step to the next (99.9th p
 seven steps of 0.6-2.5), so a change of more than ``60 deg/s^2 * dt^2`` (0.6 degrees at 10 Hz) is taken for a
 failed fit. Such a step takes the last yaw rate taken (its whole rotation, at that rate); where the next
 step's rate agrees with the refused one rather than with the last taken, the change was real (it held), and
-that rate is taken from then on.
-At high frame rates the steps' own scatter sets the bound instead (``min_change_deg``). Only below 6 m/s:
-faster, the fit's yaw is well conditioned and the direction of travel is checked instead
-(:mod:`flowvo.travel_direction`), and a synthetic path may turn faster than a car (the demo's drive, at
-13 m/s, straightens out of a 1 g curve by 1.2 degrees a step: checked at that speed it scored 1.92 against
-0.96 %). Rotations are rotation vectors in the camera frame (x right, y down, z forward), radians.
+that rate is taken from then on. At high frame rates the steps' own scatter sets the bound instead
+(``min_change_deg``). Only below 6 m/s: faster, the fit's yaw is well conditioned and the direction of travel
+is checked instead (:mod:`flowvo.travel_direction`), and a synthetic path may turn faster than a car (the
+demo's drive, at 13 m/s, straightens out of a 1 g curve by 1.2 degrees a step: checked at that speed it scored
+1.92 against 0.96 %). Rotations are rotation vectors in the camera frame (x right, y down, z forward),
+radians.
 """
 
 from __future__ import annotations

@@ -177,10 +177,10 @@ class FlowGeometryStep(WorkingFrames):
         self.still_flow_px = STILL_FLOW_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * self.working_hw[1] / REFERENCE_WIDTH_PX
         self.speed = SpeedPrior()
-        forward = np.array([0.0, 0.0, 1.0])  # along the road: a pitched camera's is turned by its pitch
-        self.travel = TravelDirection(forward if self.levelling is None else self.levelling.T @ forward)
-        up = np.array([0.0, 1.0, 0.0])  # the car's vertical axis (y down): yaw turns about it
-        self.yaw_rate = YawRateCheck(up if self.levelling is None else self.levelling.T @ up)
+        car_axes = np.eye(3) if self.levelling is None else self.levelling.T  # columns: the car's right, down
+        # and forward axes in the camera frame (a pitched camera's are turned by its pitch)
+        self.travel = TravelDirection(car_axes[:, 2])  # along the road
+        self.yaw_rate = YawRateCheck(car_axes[:, 1])  # yaw turns about the car's vertical axis
         self.road_normal = RoadNormal()
         self.last_motion = np.eye(4)
         # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios
@@ -374,8 +374,13 @@ class FlowGeometryStep(WorkingFrames):
         R = self.rotation_key.step_rotation(key_fit.R)
         if np.degrees(np.linalg.norm(so3_log(R @ fit.R.T))) > MAX_KEY_ROTATION_OFF_DEG:
             return fit
-        inliers = fit.inliers
         self.rotation_key_steps += 1
+        return self._under_rotation(fit, R, flow)
+
+    def _under_rotation(self, fit: EssentialMotion, R: np.ndarray, flow: GeometryFlow) -> EssentialMotion:
+        """The step's motion with rotation ``R`` (``R_next_prev``) and the direction fitted again under it to the
+        pair's inlier tracks of ``fit`` (:func:`direction_given_rotation`)."""
+        inliers = fit.inliers
         return EssentialMotion(R, direction_given_rotation(flow.motion_prev[inliers], flow.motion_next[inliers], self.K,
                                                            R, fit.t_dir), inliers)
 
@@ -397,11 +402,7 @@ class FlowGeometryStep(WorkingFrames):
         direction fitted again under it to the pair's inlier tracks."""
         rotation = so3_log(fit.R)
         taken = self.yaw_rate.checked(rotation, dt_s, self.speed.last_speed_mps)
-        if taken is rotation:
-            return fit
-        R, inliers = so3_exp(taken), fit.inliers
-        return EssentialMotion(R, direction_given_rotation(flow.motion_prev[inliers], flow.motion_next[inliers], self.K,
-                                                           R, fit.t_dir), inliers)
+        return fit if taken is rotation else self._under_rotation(fit, so3_exp(taken), flow)
 
     def _length_ratio(self, last_step: tuple[EssentialMotion, np.ndarray, np.ndarray], current: GeometryFrame,
                       fit: EssentialMotion) -> LengthRatio | None:
