@@ -2,14 +2,14 @@
 window of steps, from the measurements of all of them.
 
 Per step the default method measures, when it can: its length from the road plane and the camera height
-(absolute, a few % noise, heavy tails), the ratio of its length to the previous step's from points seen
-in three frames (relative, about 1 % noise, weighted by its own standard error and its steps' turn: a ratio
-whose points disagree counts less, and so does one through a turn; :mod:`flowvo.scale_propagation`), and
-where no road has been seen for a while the network's distance (absolute, biased on real frames). With ``x_k``
-the log of step k's length, the measurements are ``x_k = log(road)`` and ``x_k - x_(k-1) = log(ratio)``; a road
-measured from a key frame several steps back (at low speed) measures the log of their summed length. The window
-solves these by robust least squares (Huber, then Cauchy), so the road's scale is averaged over the window's many frames
-and carried through stretches without road, while a wrong road or ratio is down-weighted.
+(absolute, a few % noise, heavy tails), the ratio of its length to the previous step's from points seen in three
+frames (relative, about 1 % noise, weighted by its own standard error and its steps' turn: a ratio whose points
+disagree counts less, and so does one through a turn; :mod:`flowvo.scale_propagation`), and where no road has
+been seen for a while the network's distance (absolute, biased on real frames). With ``x_k`` the log of step k's
+length, the measurements are ``x_k = log(road)`` and ``x_k - x_(k-1) = log(ratio)``; a road measured from a key
+frame several steps back (at low speed) measures the log of their summed length. The window solves these by
+robust least squares (Huber, then Cauchy), so the road's scale is averaged over the window's many frames and
+carried through stretches without road, while a wrong road or ratio is down-weighted.
 
 Each step's length is final ``latency_frames`` steps after it arrives: it then has measurements on both
 sides. A step that leaves the window is marginalised, not forgotten: what its road, network and prior
