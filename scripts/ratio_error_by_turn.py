@@ -16,7 +16,6 @@ from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 from frame_rate_clips import subsample_clip
 
 from flowvo.drive import RunOptions, open_drive
-from flowvo.geometry import rotation_angle_between_rad
 from flowvo.methods.flowvo import FlowGeometryStep
 from flowvo.scale_window import ScaleWindow
 from flowvo.stream import stream_odometry
@@ -50,7 +49,7 @@ def ratio_errors(data: Path, clip: str) -> np.ndarray:
     for time_s, scale in step.records:
         k = index[float(time_s)]
         if scale is not None and scale.ratio is not None and last is not None and last[0] == k - 1:
-            turn_deg = np.degrees(max(rotation_angle_between_rad(R, np.eye(3)) for R in (last[1].R, scale.R)))
+            turn_deg = max(last[1].turn_deg, scale.turn_deg)
             error = np.log(scale.ratio / (lengths[k - 1] / lengths[k - 2]))
             rows.append((turn_deg, 100.0 * error, 100.0 * scale.ratio_log_sigma))
         last = None if scale is None else (k, scale)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -84,6 +85,11 @@ class StepScale:
     ratio: float | None = None
     ratio_log_sigma: float = 0.0
     road_steps: int = 1
+
+    @cached_property
+    def turn_deg(self) -> float:
+        """How far the step turns: the angle of its rotation, degrees (computed once, read by every solve)."""
+        return float(np.degrees(rotation_angle_between_rad(self.R, np.eye(3))))
 
 
 class _WindowProblem:
@@ -342,10 +348,9 @@ class ScaleWindow:
         lengths, and its roads over several steps (first, last, log length, sigma; one whose first step
         has left the window is left out)."""
         links, absolutes, sums = [], [] if self._prior is None else [(0, *self._prior)], []
-        turns_deg = np.degrees(rotation_angle_between_rad(np.stack([step.R for _, step in self._steps]), np.eye(3)))
         for k, (_, step) in enumerate(self._steps):
             if k and self.ratios and _usable(step.ratio):
-                turn_sigma = RATIO_SIGMA_PER_DEG * max(turns_deg[k - 1], turns_deg[k])
+                turn_sigma = RATIO_SIGMA_PER_DEG * max(self._steps[k - 1][1].turn_deg, step.turn_deg)
                 links.append((k, float(np.log(step.ratio)),
                               math.hypot(RATIO_SIGMA, turn_sigma, step.ratio_log_sigma)))
             elif k and step.dt_s <= SPEED_HORIZON_S:  # about the same speed: lengths in proportion to the time
