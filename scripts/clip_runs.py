@@ -37,10 +37,11 @@ def run_cell(data: Path, clip: str, out: Path, extra: list[str] = ()) -> str:
 
 @dataclass(frozen=True)
 class ClipScore:
-    """A stream's result on a clip: t_err (%), its path length over the truth's, frames/s, and the window
-    stage's milliseconds per frame (0 without one)."""
+    """A stream's result on a clip: t_err (%), r_err (deg/m), its path length over the truth's, frames/s, and the
+    window stage's milliseconds per frame (0 without one)."""
 
     t_err_percent: float
+    r_err_deg_per_m: float
     length_ratio: float
     frames_per_second: float
     window_ms: float
@@ -57,5 +58,6 @@ def stream_clip(data: Path, clip: str, build: Callable[[Camera, tuple[int, int]]
     metrics = evaluate(source.ground_truth, predicted, lengths_m=tuple(float(m) for m in CLIPS[clip])).metrics
     predicted_m, truth_m = (trajectory_distances(t.T_world_cam[:, :3, 3])[-1] for t in (predicted, source.ground_truth))
     timing = timing_report(result)
-    return ClipScore(float(metrics["t_err_percent"]), float(predicted_m / truth_m), float(timing["frames_per_second"]),
+    return ClipScore(float(metrics["t_err_percent"]), float(metrics["r_err_deg_per_m"]), float(predicted_m / truth_m),
+                     float(timing["frames_per_second"]),
                      1e3 * float(timing["seconds_per_frame"].get("window", 0.0)))

@@ -11,7 +11,7 @@ from pathlib import Path
 
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT, run_cell
 
-METHODS = {"flowvo": [], "flowvo-geometry": [], "flowvo-pair": [], "cnn": [], "classical": [],
+METHODS = {"flowvo": [], "flowvo-geometry": [], "flowvo-pair": [], "flowvo-ba": [], "cnn": [], "classical": [],
            "classical_gt": ["--method", "classical", "--scale-from", "gt"]}
 
 

@@ -11,16 +11,16 @@ from flowvo.evaluation import pooled_summary
 from flowvo.reference_system import REFERENCE_FIGURES
 from flowvo.report import load_run
 
-METHODS = ("flowvo", "flowvo-geometry", "flowvo-pair", "cnn", "classical", "classical_gt")
+METHODS = ("flowvo", "flowvo-geometry", "flowvo-pair", "flowvo-ba", "cnn", "classical", "classical_gt")
 SEQUENCES = ("08", "09", "10")
 
 
 def main(out: Path) -> None:
     runs = {(m, s): load_run(out / m / s) for m in METHODS for s in SEQUENCES}
-    print("| sequence (frames) | flowvo (default), t_err % / r_err deg/m | flowvo-geometry | flowvo-pair "
+    print("| sequence (frames) | flowvo (default), t_err % / r_err deg/m | flowvo-geometry | flowvo-pair | flowvo-ba "
           "| CNN (thesis) | classical VO, camera-height scale | classical VO, GT scale "
           "| reference system, published (real KITTI) |")
-    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
     for s in SEQUENCES:
         cells = []
         for m in METHODS:

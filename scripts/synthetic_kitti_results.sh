@@ -6,7 +6,7 @@ set -euo pipefail
 data="$1"; out="$2"
 runs=()
 for seq in 08 09 10; do
-  for method in flowvo flowvo-geometry flowvo-pair cnn classical; do
+  for method in flowvo flowvo-geometry flowvo-pair flowvo-ba cnn classical; do
     flowvo -q run --data "$data" --sequence "$seq" --method "$method" --out "$out/$method/$seq" --force
     runs+=("$out/$method/$seq")
   done

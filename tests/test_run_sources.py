@@ -2,6 +2,7 @@
 ``flowvo run``; the bag run also writes a nav_msgs/Odometry MCAP. And ``bench --json``."""
 
 import json
+import sys
 
 import cv2
 import numpy as np
@@ -127,3 +128,24 @@ def test_the_latency_is_chosen_and_recorded_and_refused_where_there_is_no_window
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "--latency applies to the windowed methods" in err[0]
     assert not (tmp_path / "cnn").exists()
+
+
+def test_flowvo_ba_adjusts_the_defaults_poses_behind_its_window_and_records_the_added_latency(drive, tmp_path):
+    root, _, _, _, kitti_poses = drive
+    out = tmp_path / "ba"
+    assert main(["-q", "run", "--data", str(root), "--sequence", "00", "--method", "flowvo-ba", "--out", str(out)]) == 0
+    summary = json.loads((out / "run.json").read_text())
+    assert summary["latency_frames"] == 5 + 9 and summary["bundle"]["latency_frames"] == 9
+    assert summary["bundle"]["solves"] == len(kitti_poses) - 2 + 1  # from the third frame (points seen thrice) on
+    poses = np.loadtxt(out / "00.txt")
+    assert poses.shape == kitti_poses.shape and not np.allclose(poses, kitti_poses)
+    lengths = [np.linalg.norm(np.diff(p[:, [3, 7, 11]], axis=0), axis=1).sum() for p in (poses, kitti_poses)]
+    assert lengths[0] == pytest.approx(lengths[1], rel=0.01)  # the scale stays the window's
+
+
+def test_flowvo_ba_without_gtsam_says_what_installs_it_before_the_run(drive, tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(sys.modules, "gtsam", None)  # as if not installed
+    out = tmp_path / "ba"
+    assert main(["run", "--data", str(drive[0]), "--sequence", "00", "--method", "flowvo-ba", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "pip install 'flowvo[ba]'" in err[0] and not out.exists()

@@ -36,8 +36,9 @@ class Method:
         return "window" in self.stages
 
 
-def _flowvo(with_network: bool, with_window: bool) -> Callable[..., Any]:
+def _flowvo(with_network: bool, with_window: bool, with_bundle: bool = False) -> Callable[..., Any]:
     def build(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
+        from flowvo.bundle_window import BundleSettings
         from flowvo.methods.cnn import load_cnn_step
         from flowvo.methods.flowvo import DEFAULT_ROAD_FLOW_METHOD, FlowGeometryStep
         from flowvo.scale_window import ScaleWindow
@@ -49,14 +50,16 @@ def _flowvo(with_network: bool, with_window: bool) -> Callable[..., Any]:
         if with_window:
             window = ScaleWindow() if options.latency_frames is None else ScaleWindow(options.latency_frames)
         return FlowGeometryStep(camera, source.image_size_hw, flow_method=options.flow_method or
-                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback, window=window)
+                                DEFAULT_ROAD_FLOW_METHOD, fallback=fallback, window=window,
+                                bundle=BundleSettings() if with_bundle else None)
     return build
 
 
 def _no_latency(options: RunOptions) -> None:
     """Refuse ``--latency`` for a method without a scale window (its poses are final at once)."""
     if options.latency_frames:
-        raise FlowvoError(f"--latency applies to the windowed methods (flowvo, flowvo-geometry); {options.method} "
+        raise FlowvoError(f"--latency applies to the windowed methods (flowvo, flowvo-geometry, flowvo-ba); "
+                          f"{options.method} "
                           "gives every pose at once")
 
 
@@ -87,6 +90,9 @@ METHODS: dict[str, Method] = {method.name: method for method in (
                      "network where no road is seen", _WINDOW_STAGES, _flowvo(with_network=True, with_window=True)),
     Method("flowvo-geometry", "the default without the network", _WINDOW_STAGES,
            _flowvo(with_network=False, with_window=True)),
+    Method("flowvo-ba", "the default with a local bundle adjustment of the last 10 frames' poses and tracked points "
+                        "behind the scale window (GTSAM; poses 9 frames later, several times slower)", _WINDOW_STAGES,
+           _flowvo(with_network=True, with_window=True, with_bundle=True)),
     Method("flowvo-pair", "the default's per-pair estimate: each step from its own two frames and a speed prior, "
                           "no latency", _GEOMETRY_STAGES, _flowvo(with_network=True, with_window=False)),
     Method("cnn", "the thesis network (--model, default the packaged one) on the flow field",

@@ -27,10 +27,12 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from flowvo.bundle_window import BundleSettings, BundleWindow
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
 from flowvo.geometry import invert_se3, so3_exp, so3_log
+from flowvo.landmark_tracks import RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
 from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
@@ -100,7 +102,8 @@ class GeometryFrame:
     """A working frame of the default method with its textured points, the tracks of the previous frame's
     textured points into it, and ``continued_next``: where the previous frame's tracks (its
     ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per frame, in order,
-    in the reader thread; empty for the first frame); pixels of the (distorted) working frame."""
+    in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks`` tracked over many
+    frames (:mod:`flowvo.landmark_tracks`); pixels of the (distorted) working frame."""
 
     image: np.ndarray
     textured_px: np.ndarray
@@ -108,6 +111,7 @@ class GeometryFrame:
     tracked_next: np.ndarray
     continued_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     continued_next: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
+    landmarks: Landmarks | None = None
 
 
 @dataclass(frozen=True)
@@ -141,13 +145,23 @@ class FlowGeometryStep(WorkingFrames):
 
     def __init__(self, camera: Camera, image_size_hw: tuple[int, int],
                  flow_method: str = DEFAULT_ROAD_FLOW_METHOD, working_width: int = DEFAULT_WORKING_WIDTH,
-                 fallback: CnnStep | None = None, window: ScaleWindow | None = None) -> None:
+                 fallback: CnnStep | None = None, window: ScaleWindow | None = None,
+                 bundle: BundleSettings | None = None) -> None:
         super().__init__(camera, image_size_hw, working_width)
-        name = ("flowvo" if fallback else "flowvo-geometry") if window else "flowvo-pair"
-        self.label = (f"{name} ({flow_method} road flow, geometry" + (", network fallback" if fallback else "")
-                      + (f", {window.latency_frames}-frame scale window)" if window else ", per pair)"))
+        if bundle is not None and window is None:
+            raise FlowvoError("the bundle stage takes its motions from the scale window: give both")
+        name = ("flowvo-pair" if window is None else "flowvo-ba" if bundle else
+                "flowvo" if fallback else "flowvo-geometry")
         self.window = window
-        self.latency_frames = window.latency_frames if window else 0
+        self.bundle = None if bundle is None else BundleWindow(self.K, bundle)  # behind the scale window (flowvo-ba)
+        self.latency_frames = (window.latency_frames if window else 0) + \
+            (self.bundle.latency_frames if self.bundle else 0)
+        self.label = (f"{name} ({flow_method} road flow, geometry" + (", network fallback" if fallback else "")
+                      + (f", {window.latency_frames}-frame scale window" if window else ", per pair")
+                      + (f", {self.bundle.frames}-frame bundle adjustment)" if self.bundle else ")"))
+        scale = self.working_hw[1] / REFERENCE_WIDTH_PX
+        self.landmark_tracker = LandmarkTracker(SPACING_PX * scale, RETURN_PX * scale) if bundle else None
+        self._landmark_views: dict[float, Landmarks] = {}  # undistorted, by frame time, until the bundle takes them
         if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
         self.fallback = fallback
@@ -209,8 +223,11 @@ class FlowGeometryStep(WorkingFrames):
         balances the reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07)."""
         working = super().prepare(image)
         previous = self._previous
+        textured = textured_points(working)
+        landmarks = None if self.landmark_tracker is None else self.landmark_tracker.advance(working, textured)
         if previous is None:
-            self._previous = GeometryFrame(working, textured_points(working), *(np.zeros((0, 2), np.float32),) * 2)
+            self._previous = GeometryFrame(working, textured, *(np.zeros((0, 2), np.float32),) * 2,
+                                           landmarks=landmarks)
             return self._previous
         continued_rows = np.arange(0, len(previous.tracked_next), CONTINUE_EVERY) if self.window else \
             np.zeros(0, np.int64)
@@ -218,9 +235,9 @@ class FlowGeometryStep(WorkingFrames):
         start = np.concatenate([previous.textured_px, previous.tracked_next[continued_rows]])
         moved, found = lucas_kanade(previous.image, working, start, TRACK_WINDOW_PX)  # one call: each point is
         # tracked alone
-        self._previous = GeometryFrame(working, textured_points(working), start[:count][found[:count]],
+        self._previous = GeometryFrame(working, textured, start[:count][found[:count]],
                                        moved[:count][found[:count]], continued_rows[found[count:]],
-                                       moved[count:][found[count:]])
+                                       moved[count:][found[count:]], landmarks)
         return self._previous
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
@@ -285,6 +302,10 @@ class FlowGeometryStep(WorkingFrames):
         """``T_prev_cur`` of the step between ``times_s`` (previous, current), seconds: the per-pair estimate
         (the window stage, :meth:`refine`, may change its length)."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
+        if self.bundle is not None:
+            if not self.bundle.started and not self._landmark_views:  # the drive's first frame
+                self._landmark_views[times_s[0]] = self._undistorted_landmarks(previous)
+            self._landmark_views[time_s] = self._undistorted_landmarks(flow.current)
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
         road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
@@ -414,6 +435,10 @@ class FlowGeometryStep(WorkingFrames):
         return step_length_ratio((before[rows], at[rows]), last_fit, (at[rows], self._undistort(
             current.continued_next[inlier])), fit, self.K, self.min_parallax_px)
 
+    def _undistorted_landmarks(self, frame: GeometryFrame) -> Landmarks:
+        """The frame's landmark tracks in undistorted working pixels."""
+        return Landmarks(frame.landmarks.ids, self._undistort(frame.landmarks.px))
+
     def measured(self) -> StepScale | None:
         """What the last :meth:`motion` measured of its step's length, for the window (None: a standstill)."""
         return self._step_scale
@@ -422,14 +447,31 @@ class FlowGeometryStep(WorkingFrames):
                ) -> list[tuple[float, np.ndarray]]:
         """The window stage: the step ending at ``time_s`` (``motion`` and what :meth:`measured` gave for it)
         goes into the scale window; the motions now final come back, ``latency_frames`` late (per pair: at
-        once)."""
+        once; ``flowvo-ba``: then through the bundle stage, ``bundle.latency_frames`` later)."""
         if self.window is None:
             return [(time_s, motion)]
-        return self.window.push(time_s, measured)
+        return self._bundled(self.window.push(time_s, measured))
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
-        """The motions still in the window at the end of the drive."""
-        return [] if self.window is None else self.window.flush()
+        """The motions still in the window (and the bundle stage) at the end of the drive."""
+        if self.window is None:
+            return []
+        final = self._bundled(self.window.flush())
+        return final if self.bundle is None else final + self.bundle.flush()
+
+    def _bundled(self, final: list[tuple[float, np.ndarray]]) -> list[tuple[float, np.ndarray]]:
+        """The scale window's ``final`` motions through the bundle stage, each step's length sigma from the
+        window's records."""
+        if self.bundle is None or not final:
+            return final
+        records = self.window.records[len(self.window.records) - len(final):]
+        bundled = []
+        for (time_s, motion), record in zip(final, records, strict=True):
+            if not self.bundle.started:
+                first_time_s = min(self._landmark_views)
+                bundled += self.bundle.push(first_time_s, None, *self._landmark_views.pop(first_time_s))
+            bundled += self.bundle.push(time_s, motion, *self._landmark_views.pop(time_s), record.log_sigma)
+        return bundled
 
     def step_records(self) -> list[StepRecord] | None:
         """What became of each final step so far (the window's records; None per pair)."""
@@ -455,6 +497,10 @@ class FlowGeometryStep(WorkingFrames):
                                     "steps_measured_by": dict(Counter(record.measured_by for record in records)),
                                     "median_length_log_sigma": float(np.median(sigmas)) if sigmas else None,
                                     "unscaled_steps": sum(record.unscaled for record in records)}
+        if self.bundle is not None:
+            kept["bundle"] = {"latency_frames": self.bundle.latency_frames, "frames": self.bundle.frames,
+                              "every": self.bundle.every, "solves": self.bundle.solves,
+                              "dropped_observations": self.bundle.dropped_observations}
         return kept
 
 
