@@ -95,3 +95,22 @@ def test_tracks_follow_the_image_keep_their_ids_and_new_ones_fill_the_room():
     new = third.ids >= 40
     assert len(third.ids) == 40 and new.sum() >= 36
     assert len(np.unique(np.floor(third.px / 16.0), axis=0)) == 40  # one track a cell
+
+
+def test_tracks_measured_again_from_their_first_frame_follow_the_view_and_end_at_their_age():
+    rng = np.random.default_rng(6)
+    image = cv2.GaussianBlur((rng.random((120, 200)) * 255).astype(np.uint8), (0, 0), 1.5)
+    grid = np.stack(np.meshgrid(np.arange(30, 170, 8.0), np.arange(30, 90, 8.0)), axis=-1).reshape(-1, 2)
+    tracker = LandmarkTracker(spacing_px=16.0, return_px=0.5, agree_px=1.0, max_tracks=30, max_age=3)
+    started = tracker.advance(image, grid)
+    for frame in range(1, 5):  # the view slides 0.37 px a frame to the right
+        shifted = cv2.warpAffine(image, np.array([[1.0, 0.0, 0.37 * frame], [0.0, 1.0, 0.0]]), (200, 120),
+                                 flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+        seen = tracker.advance(shifted, grid)
+        first = np.isin(seen.ids, started.ids)
+        if frame <= 3:
+            assert first.sum() >= 28
+            moved = seen.px[first] - started.px[np.searchsorted(started.ids, seen.ids[first])]
+            np.testing.assert_allclose(np.median(moved, axis=0), [0.37 * frame, 0.0], atol=0.06)  # LK's own bias
+        else:
+            assert not first.any() and len(seen.ids) == 30  # 4 frames old: ended, and new ones took the room

@@ -53,16 +53,19 @@ def no_image_area(image: np.ndarray, margin_px: int = 6) -> np.ndarray:
     return cv2.dilate(black, np.ones((2 * margin_px + 1, 2 * margin_px + 1), np.uint8)) > 0
 
 
-def lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray, window_px: int = 15
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """Pyramidal Lucas-Kanade with ``window_px`` square windows: where ``points_px`` (N, 2) moved to, (N, 2)
-    float32 pixels, and which were found, (N,) bool."""
+def lucas_kanade(previous: np.ndarray, current: np.ndarray, points_px: np.ndarray, window_px: int = 15,
+                 guess_px: np.ndarray | None = None, levels: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """Pyramidal Lucas-Kanade with ``window_px`` square windows over ``levels`` pyramid levels above the frame:
+    where ``points_px`` (N, 2) moved to, (N, 2) float32 pixels, and which were found, (N,) bool; searched from
+    ``guess_px`` (N, 2) where given, else from where each point was."""
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 20, 0.03)
     start = points_px.reshape(-1, 1, 2).astype(np.float32)
     if not len(start):  # OpenCV returns None for no points
         return np.zeros((0, 2), np.float32), np.zeros(0, bool)
-    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, None, winSize=(window_px, window_px),
-                                                maxLevel=3, criteria=criteria)
+    guess = None if guess_px is None else guess_px.reshape(-1, 1, 2).astype(np.float32)  # a copy: OpenCV writes it
+    moved, status, _ = cv2.calcOpticalFlowPyrLK(previous, current, start, guess, winSize=(window_px, window_px),
+                                                maxLevel=levels, criteria=criteria,
+                                                flags=0 if guess is None else cv2.OPTFLOW_USE_INITIAL_FLOW)
     return moved.reshape(-1, 2), status[:, 0] == 1
 
 

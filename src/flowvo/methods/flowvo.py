@@ -32,7 +32,7 @@ from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
 from flowvo.geometry import invert_se3, so3_exp, so3_log
-from flowvo.landmark_tracks import RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
+from flowvo.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
 from flowvo.methods.cnn import CnnStep
 from flowvo.road_scale import (
@@ -160,7 +160,8 @@ class FlowGeometryStep(WorkingFrames):
                       + (f", {window.latency_frames}-frame scale window" if window else ", per pair")
                       + (f", {self.bundle.frames}-frame bundle adjustment)" if self.bundle else ")"))
         scale = self.working_hw[1] / REFERENCE_WIDTH_PX
-        self.landmark_tracker = LandmarkTracker(SPACING_PX * scale, RETURN_PX * scale) if bundle else None
+        self.landmark_tracker = LandmarkTracker(SPACING_PX * scale, RETURN_PX * scale, AGREE_PX * scale) if bundle \
+            else None
         self._landmark_views: dict[float, Landmarks] = {}  # undistorted, by frame time, until the bundle takes them
         if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
