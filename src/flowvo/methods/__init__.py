@@ -58,9 +58,8 @@ def _flowvo(with_network: bool, with_window: bool, with_bundle: bool = False) ->
 def _no_latency(options: RunOptions) -> None:
     """Refuse ``--latency`` for a method without a scale window (its poses are final at once)."""
     if options.latency_frames:
-        raise FlowvoError(f"--latency applies to the windowed methods (flowvo, flowvo-geometry, flowvo-ba); "
-                          f"{options.method} "
-                          "gives every pose at once")
+        raise FlowvoError("--latency applies to the windowed methods (flowvo, flowvo-geometry, flowvo-ba); "
+                          f"{options.method} gives every pose at once")
 
 
 def _cnn(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:

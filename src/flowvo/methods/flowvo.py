@@ -160,8 +160,8 @@ class FlowGeometryStep(WorkingFrames):
                       + (f", {window.latency_frames}-frame scale window" if window else ", per pair")
                       + (f", {self.bundle.frames}-frame bundle adjustment)" if self.bundle else ")"))
         scale = self.working_hw[1] / REFERENCE_WIDTH_PX
-        self.landmark_tracker = LandmarkTracker(SPACING_PX * scale, RETURN_PX * scale, AGREE_PX * scale) if bundle \
-            else None
+        self.landmark_tracker = None if self.bundle is None else \
+            LandmarkTracker(SPACING_PX * scale, RETURN_PX * scale, AGREE_PX * scale)
         self._landmark_views: dict[float, Landmarks] = {}  # undistorted, by frame time, until the bundle takes them
         if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
