@@ -2,9 +2,9 @@
 scale window at several latencies and lengths, without its three-view ratios (road lengths averaged
 alone), without the prior that steps leaving the window pass on, and solved by SciPy's least_squares
 instead of its own iterations; then the bundle stage behind it (``flowvo-ba``) over 6, 10 and 15 frames,
-solved every second frame, and under Huber's loss or none; the frames/s of each on clip 07 (one process,
-frames read in a thread beside the rest) and the window stage's milliseconds per frame there (the bundle
-stage's included).
+with the bundle's own rotations, solved every second frame, and under Huber's loss or none; the frames/s of
+each on clip 07 (one process, frames read in a thread beside the rest) and the window stage's milliseconds per
+frame there (the bundle stage's included).
 
 Usage: python scripts/window_ablation.py [CLIPS_ROOT]
 """
@@ -33,6 +33,8 @@ VARIANTS: dict[str, tuple[dict | None, BundleSettings | None]] = {
     "window 2 s, latency 5, SciPy's least_squares as the solver": (dict(solver="scipy"), None),
     "default + bundle adjustment over 6 frames": (DEFAULT_WINDOW, BundleSettings(frames=6)),
     "default + bundle adjustment over 10 frames (flowvo-ba)": (DEFAULT_WINDOW, BundleSettings()),
+    "default + bundle adjustment over 10 frames, its own rotations": (DEFAULT_WINDOW,
+                                                                      BundleSettings(own_rotations=True)),
     "default + bundle adjustment over 15 frames": (DEFAULT_WINDOW, BundleSettings(frames=15)),
     "default + bundle adjustment over 10 frames, solved every 2nd": (DEFAULT_WINDOW, BundleSettings(every=2)),
     "default + bundle adjustment over 10 frames, Huber's loss": (DEFAULT_WINDOW, BundleSettings(loss="huber")),

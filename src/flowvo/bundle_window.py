@@ -6,8 +6,10 @@ estimate for every track seen in ``MIN_VIEWS`` frames. Every ``every`` frames it
 (:func:`flowvo.bundle_adjustment.adjust_bundle`): the oldest frame held (its pose is final), each step's motion
 from the scale window as a prior that keeps its length (the window's own standard deviation of it) and lets its
 rotation and direction follow the points. When a frame leaves the window, the motion to the next one is final:
-each motion comes out ``frames - 1`` frames after the scale window gave it. Observations that end a solve more
-than a few pixel sigmas off are dropped.
+each motion comes out ``frames - 1`` frames after the scale window gave it, with the bundle's translation and,
+by default, the scale window's rotation: the bundle's rotations drift with its tracks' bias (real clips 06 and 07,
+synthetic replays; ``BundleSettings(own_rotations=True)`` gives them), its translations are better. Observations
+that end a solve more than a few pixel sigmas off are dropped.
 
 Pure computation over NumPy arrays (the solve is GTSAM's). Motions ``T_prev_cur`` (4x4, metres); poses
 ``T_world_cam`` in the window's own world (the first frame's camera); undistorted working pixels.
@@ -38,11 +40,13 @@ MIN_PARALLAX_RAD = 0.001  # a track's rays from its first and last view meet at 
 @dataclass(frozen=True)
 class BundleSettings:
     """How the bundle stage runs: ``frames`` in the window, a solve every ``every`` frames, the reprojections'
-    robust ``loss`` ("cauchy", "huber" or "none")."""
+    robust ``loss`` ("cauchy", "huber" or "none"), and whether the motions it gives keep the scale window's
+    rotations (``own_rotations`` False) or take the bundle's own."""
 
     frames: int = FRAMES
     every: int = EVERY
     loss: str = "cauchy"
+    own_rotations: bool = False
 
 
 @dataclass
@@ -68,6 +72,7 @@ class BundleWindow:
         import_optional("gtsam", "flowvo-ba's bundle adjustment", "ba")  # before the drive, not at its first solve
         self.K = np.asarray(K, np.float64)
         self.frames, self.every, self.loss = settings.frames, settings.every, settings.loss
+        self.own_rotations = settings.own_rotations
         self._window: deque[_Frame] = deque()
         self._points: dict[int, np.ndarray] = {}  # track id -> world point (metres)
         self._pushed = 0
@@ -117,7 +122,10 @@ class BundleWindow:
         while len(self._window) > keep:
             leaving = self._window.popleft()
             following = self._window[0]
-            final.append((following.time_s, invert_se3(leaving.T_world_cam) @ following.T_world_cam))
+            motion = invert_se3(leaving.T_world_cam) @ following.T_world_cam
+            if not self.own_rotations:
+                motion[:3, :3] = following.motion[:3, :3]
+            final.append((following.time_s, motion))
         return final
 
     def _solve(self) -> None:
