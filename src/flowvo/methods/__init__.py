@@ -90,7 +90,8 @@ METHODS: dict[str, Method] = {method.name: method for method in (
     Method("flowvo-geometry", "the default without the network", _WINDOW_STAGES,
            _flowvo(with_network=False, with_window=True)),
     Method("flowvo-ba", "the default with a local bundle adjustment of the last 10 frames' poses and tracked points "
-                        "behind the scale window (GTSAM; poses 9 frames later, several times slower)", _WINDOW_STAGES,
+                        "behind the scale window, its translations taken (GTSAM; poses 9 frames later, several times "
+                        "slower)", _WINDOW_STAGES,
            _flowvo(with_network=True, with_window=True, with_bundle=True)),
     Method("flowvo-pair", "the default's per-pair estimate: each step from its own two frames and a speed prior, "
                           "no latency", _GEOMETRY_STAGES, _flowvo(with_network=True, with_window=False)),
