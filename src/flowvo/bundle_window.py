@@ -34,7 +34,7 @@ ROTATION_SIGMA_RAD = math.radians(0.1)  # a step's rotation prior, each axis (th
 DIRECTION_SIGMA = 0.01  # a step's sideways and vertical translation prior, as a fraction of its length (0.6 deg)
 LENGTH_LOG_SIGMA = 0.05  # a step's length prior where the scale window gave no standard deviation (log)
 MIN_TRANSLATION_SIGMA_M = 0.002  # translation priors at least this (standstill steps)
-MIN_PARALLAX_RAD = 0.001  # a track's rays from its first and last view meet at this angle at least (0.6 px at 620)
+MIN_PARALLAX_RAD = 0.001  # a track's rays from its first and last view meet at this angle at least (0.35 px at 620)
 
 
 @dataclass(frozen=True)
