@@ -26,6 +26,7 @@ import numpy as np
 from flowvo.bundle_adjustment import adjust_bundle
 from flowvo.geometry import invert_se3
 from flowvo.optional import import_optional
+from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulate
 
 FRAMES = 10  # frames in the window (the latency it adds is one less)
 EVERY = 1  # frames between solves
@@ -34,7 +35,8 @@ ROTATION_SIGMA_RAD = math.radians(0.1)  # a step's rotation prior, each axis (th
 DIRECTION_SIGMA = 0.01  # a step's sideways and vertical translation prior, as a fraction of its length (0.6 deg)
 LENGTH_LOG_SIGMA = 0.05  # a step's length prior where the scale window gave no standard deviation (log)
 MIN_TRANSLATION_SIGMA_M = 0.002  # translation priors at least this (standstill steps)
-MIN_PARALLAX_RAD = 0.001  # a track's rays from its first and last view meet at this angle at least (0.35 px at 620)
+MIN_PARALLAX_RAD = 0.001  # a track moves this much between its first and last view beyond the rotation, at least
+# (over the focal length: 0.35 px at 620 px wide)
 
 
 @dataclass(frozen=True)
@@ -137,10 +139,11 @@ class BundleWindow:
         unique_ids, point, views = np.unique(ids, return_inverse=True, return_counts=True)
         poses = np.stack([f.T_world_cam for f in window])
         points = np.full((len(unique_ids), 3), np.nan)
-        for j, track in enumerate(unique_ids.tolist()):
-            if views[j] >= MIN_VIEWS:
-                points[j] = self._points[track] if track in self._points else \
-                    self._triangulated(poses, frame, px, point == j)
+        known = np.array([track in self._points for track in unique_ids.tolist()], bool)
+        for j in np.flatnonzero(known):
+            points[j] = self._points[int(unique_ids[j])]
+        new = ~known & (views >= MIN_VIEWS)
+        points[new] = self._triangulated(poses, frame, px, point, np.flatnonzero(new))
         used = ~np.isnan(points[:, 0])
         self._points = {int(track): points[j] for j, track in enumerate(unique_ids) if used[j]}
         if not used.any():
@@ -164,25 +167,29 @@ class BundleWindow:
             start += len(f.ids)
             f.ids, f.px = f.ids[own], f.px[own]
 
-    def _triangulated(self, poses: np.ndarray, frame: np.ndarray, px: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """A track's world point from its first and last view in the window (midpoint of the closest approach
-        of the two rays), or NaNs where the rays meet at less than ``MIN_PARALLAX_RAD`` or behind a camera."""
-        first, last = np.flatnonzero(rows)[[0, -1]]
-        K_inverse = np.linalg.inv(self.K)
-        centres, directions = [], []
-        for row in (first, last):
-            T = poses[frame[row]]
-            ray = T[:3, :3] @ (K_inverse @ np.array([px[row, 0], px[row, 1], 1.0]))
-            centres.append(T[:3, 3])
-            directions.append(ray / np.linalg.norm(ray))
-        (c1, c2), (d1, d2) = centres, directions
-        cosine = float(d1 @ d2)
-        if 1.0 - cosine < 1.0 - math.cos(MIN_PARALLAX_RAD):
-            return np.full(3, np.nan)
-        baseline = c2 - c1
-        # depths along both rays where they come closest: l1 d1 - l2 d2 = baseline, least squares
-        depth_1, depth_2 = np.linalg.solve(np.array([[1.0, -cosine], [cosine, -1.0]]),
-                                           np.array([baseline @ d1, baseline @ d2]))
-        if depth_1 <= 0 or depth_2 <= 0:
-            return np.full(3, np.nan)
-        return 0.5 * (c1 + depth_1 * d1 + c2 + depth_2 * d2)
+    def _triangulated(self, poses: np.ndarray, frame: np.ndarray, px: np.ndarray, point: np.ndarray,
+                      tracks: np.ndarray) -> np.ndarray:
+        """World points (len(tracks), 3) of the ``tracks`` (indices into ``point``'s numbering), each from its first
+        and last view in the window (:func:`flowvo.two_view.triangulate`, the midpoint method, with the metric
+        motion between the two frames); NaNs where the view moved less than ``MIN_PARALLAX_RAD`` beyond the rotation
+        or the point lies behind a camera. Observations are in frame order: a track's earliest row is its first view."""
+        points = np.full((len(tracks), 3), np.nan)
+        if not len(tracks):
+            return points
+        rows = np.arange(len(point))
+        first, last = np.full(point.max() + 1, len(point)), np.full(point.max() + 1, -1)
+        np.minimum.at(first, point, rows)
+        np.maximum.at(last, point, rows)
+        first, last = first[tracks], last[tracks]
+        pairs = np.stack([frame[first], frame[last]], axis=1)
+        for a, b in np.unique(pairs, axis=0).tolist():
+            group = np.flatnonzero((pairs[:, 0] == a) & (pairs[:, 1] == b))
+            T_b_a = invert_se3(poses[b]) @ poses[a]
+            motion = EssentialMotion(T_b_a[:3, :3], T_b_a[:3, 3], np.ones(len(group), bool))
+            seen_a, seen_b = px[first[group]], px[last[group]]
+            in_a = triangulate(seen_a, seen_b, self.K, motion)  # metres: the motion's translation is metric
+            in_b_z = in_a @ motion.R[2] + motion.t_dir[2]
+            parallax_rad = translation_parallax_px(seen_a, seen_b, self.K, motion.R) / self.K[0, 0]
+            usable = (parallax_rad >= MIN_PARALLAX_RAD) & (in_a[:, 2] > 0) & (in_b_z > 0)
+            points[group[usable]] = in_a[usable] @ poses[a][:3, :3].T + poses[a][:3, 3]
+        return points
