@@ -81,3 +81,15 @@ def test_at_speed_every_yaw_rate_is_taken_and_becomes_the_last_one():
     assert check.checked(straightening, 0.1, 13.0) is straightening
     np.testing.assert_allclose(check.checked(yawing(1.0), 0.1, None), straightening)  # unknown speed: checked
     assert check.refused_steps == 1
+
+
+def test_the_rotation_a_step_finally_took_is_the_rate_the_next_is_checked_against():
+    """At speed a wrong fit is taken by this check (the direction check refuses it and fits its rotation again);
+    told the rotation the step took, the next, slower step's good fit is taken, not refused against the wrong one."""
+    check = YawRateCheck(UP, max_acceleration_deg_s2=60.0, min_change_deg=0.2, max_speed_mps=6.0)
+    check.checked(yawing(3.0), 0.1, 6.1)
+    check.checked(yawing(5.2), 0.1, 6.1)  # a failed fit, taken at speed
+    check.took(yawing(2.8), 0.1)  # what the step took after the direction check
+    good = yawing(3.1)
+    assert check.checked(good, 0.1, 5.9) is good
+    assert check.refused_steps == 0

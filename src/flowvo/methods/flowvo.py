@@ -346,7 +346,10 @@ class FlowGeometryStep(WorkingFrames):
         if flow.rotation_key_prev is not None:  # the same key frame's tracks share the road key's fit
             fit = self._over_rotation_key(fit, road_key_fit if flow.rotation_key_prev is flow.key_prev else
                                           self._essential(flow.rotation_key_prev, flow.rotation_key_next), flow)
-        fit = self._travel_checked(self._yaw_checked(fit, flow, dt_s), flow)
+        yaw_checked = self._yaw_checked(fit, flow, dt_s)
+        fit = self._travel_checked(yaw_checked, flow)
+        if fit is not yaw_checked:
+            self.yaw_rate.took(so3_log(fit.R), dt_s)
         self.rotation_key.advance((times_s[0], previous), time_s, fit.R)
         key_fit = fit if key_is_previous else road_key_fit
         self.road_normal.advance(fit.R, dt_s)
