@@ -151,8 +151,9 @@ def refined_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarr
     tilt the fit's pitch a few thousandths of a degree a step, always the same way. Weights that fall off well
     inside the threshold leave the fit to the tracks that agree closely. The numerator ``r2 . (t x R r1)`` is
     linear in both updates; the Sampson denominator is held at the fit (the update is a few thousandths of a
-    degree, a second linearisation moved the rotations by 1e-4 degrees in the median). ``fit`` itself where
-    the refit would turn the rotation or the direction by more than ``MAX_REFIT_RAD``."""
+    degree: per pair on a synthetic replay, two linearisations of five reweightings each left the same pitch
+    lean as one of ten, within 1e-5 degrees). ``fit`` itself where the refit would turn the rotation or the
+    direction by more than ``MAX_REFIT_RAD``."""
     R, t = fit.R, fit.t_dir
     rays_prev, rays_next = _rays(points_prev[fit.inliers], K), _rays(points_next[fit.inliers], K)
     rotated = rays_prev @ R.T  # R r1
