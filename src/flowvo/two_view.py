@@ -147,7 +147,7 @@ def refined_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarr
     applied after ``R`` and a step of ``t`` orthogonal to it.
 
     USAC keeps every track within its threshold alike, and Lucas-Kanade's errors within it are not symmetric
-    (the near road's stretching flow is measured short, windows over two depths lean one way): at 0.25 px they
+    (the near road's stretching flow is measured short, far tracks have a one-sided tail): at 0.25 px they
     tilt the fit's pitch a few thousandths of a degree a step, always the same way. Weights that fall off well
     inside the threshold leave the fit to the tracks that agree closely. The numerator ``r2 . (t x R r1)`` is
     linear in both updates; the Sampson denominator is held at the fit (the update is a few thousandths of a
