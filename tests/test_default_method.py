@@ -104,7 +104,7 @@ def at_speed_with_sideways_fits(monkeypatch):
     step = FlowGeometryStep(CAMERA, HW)
     step.motion((0.0, 0.1), None, step_flow(step, 1.0, yaw_rad=0.02))
 
-    def sideways_fit(points_prev, points_next, K, threshold_px):
+    def sideways_fit(points_prev, points_next, K, threshold_px, robust_scale_px=None):
         return EssentialMotion(WRONG_R, -WRONG_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
 
     monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
@@ -128,7 +128,8 @@ def test_a_fit_whose_yaw_rate_jumps_takes_the_last_yaw_rate_and_its_direction_fr
     step = FlowGeometryStep(CAMERA, HW)
     step.motion((0.0, 0.1), None, step_flow(step, 0.3))
     overturned = so3_exp(np.array([0.0, 0.04, 0.0]))
-    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", lambda points_prev, points_next, K, threshold_px:
+    monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", lambda points_prev, points_next, K, threshold_px,
+                        robust_scale_px=None:
                         EssentialMotion(overturned, np.array([0.0, 0.0, -1.0]), np.ones(len(points_prev), bool)))
     gated = step.motion((0.1, 0.2), None, step_flow(step, 0.3))
     np.testing.assert_allclose(gated[:3, :3], so3_exp(np.array([0.0, 0.01, 0.0])).T, atol=1e-6)

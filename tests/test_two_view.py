@@ -76,6 +76,17 @@ def test_refined_motion_returns_the_true_motion_from_a_fit_slightly_off():
     assert refined.inliers is start.inliers
 
 
+def test_essential_motion_with_a_robust_scale_is_its_fit_refined():
+    scene, _, R, t = scene_and_motion()
+    moved = project(scene @ R.T + t) + np.random.default_rng(4).normal(0.0, 0.05, (len(scene), 2))
+    fit = essential_motion(project(scene), moved, K, threshold_px=0.25)
+    refined = refined_motion(project(scene), moved, K, fit, scale_px=0.06)
+    both = essential_motion(project(scene), moved, K, threshold_px=0.25, robust_scale_px=0.06)
+    assert not np.array_equal(refined.R, fit.R)
+    np.testing.assert_array_equal(both.R, refined.R)
+    np.testing.assert_array_equal(both.t_dir, refined.t_dir)
+
+
 def test_refined_motion_keeps_a_fit_it_would_have_to_turn_far():
     """A linearised refit is a small correction: from a fit a degree off it would move further than
     ``MAX_REFIT_RAD``, and the fit comes back as it was."""

@@ -108,10 +108,12 @@ class EssentialMotion:
 
 
 def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
-                     threshold_px: float = 0.5, min_inliers: int = 30) -> EssentialMotion | None:
+                     threshold_px: float = 0.5, min_inliers: int = 30,
+                     robust_scale_px: float | None = None) -> EssentialMotion | None:
     """Motion up to scale from correspondences (N, 2) by USAC on the essential matrix; of the four
-    decompositions, the one that puts most inliers in front of both cameras. None when the fit fails or
-    keeps fewer than ``min_inliers`` points."""
+    decompositions, the one that puts most inliers in front of both cameras; with ``robust_scale_px``, refitted
+    over its inliers (:func:`refined_motion`). None when the fit fails or keeps fewer than ``min_inliers``
+    points."""
     if len(points_prev) < min_inliers:
         return None
     K = np.ascontiguousarray(K, dtype=np.float64)  # OpenCV's USAC reads a strided view (the left 3x3 of a
@@ -132,7 +134,9 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
         count = int(((depth_prev > 0) & (depth_next > 0)).sum())
         if count > best_count:
             best, best_count = candidate, count
-    return best if best_count >= min_inliers else None
+    if best_count < min_inliers:
+        return None
+    return best if robust_scale_px is None else _refitted(rays_prev, rays_next, K, best, robust_scale_px)
 
 
 MAX_REFIT_RAD = np.radians(0.5)  # a robust refit that turns the rotation or the direction further is no small
@@ -154,8 +158,15 @@ def refined_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarr
     degree: per pair on a synthetic replay, two linearisations of five reweightings each left the same pitch
     lean as one of ten, within 1e-5 degrees). ``fit`` itself where the refit would turn the rotation or the
     direction by more than ``MAX_REFIT_RAD``."""
+    return _refitted(_rays(points_prev[fit.inliers], K), _rays(points_next[fit.inliers], K), K, fit, scale_px,
+                     reweightings)
+
+
+def _refitted(rays_prev: np.ndarray, rays_next: np.ndarray, K: np.ndarray, fit: EssentialMotion, scale_px: float,
+              reweightings: int = 10) -> EssentialMotion:
+    """:func:`refined_motion` on the viewing rays (M, 3) of the fit's inliers (:func:`essential_motion` has
+    them from its cheirality check)."""
     R, t = fit.R, fit.t_dir
-    rays_prev, rays_next = _rays(points_prev[fit.inliers], K), _rays(points_next[fit.inliers], K)
     rotated = rays_prev @ R.T  # R r1
     t_cross = skew(t)
     line_next = rotated @ t_cross.T  # E r1: the epipolar line in the second camera's normalised coordinates

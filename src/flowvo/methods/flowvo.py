@@ -60,7 +60,6 @@ from flowvo.two_view import (
     follow_flow,
     lucas_kanade,
     motion_along,
-    refined_motion,
     se3_next_prev,
     textured_points,
     track_points,
@@ -392,9 +391,9 @@ class FlowGeometryStep(WorkingFrames):
 
     def _essential(self, points_prev: np.ndarray, points_next: np.ndarray) -> EssentialMotion | None:
         """The motion up to scale from undistorted tracks (N, 2): USAC's essential fit, refitted robustly over its
-        inliers (:func:`refined_motion`); None where USAC finds none."""
-        fit = essential_motion(points_prev, points_next, self.K, threshold_px=self.threshold_px)
-        return None if fit is None else refined_motion(points_prev, points_next, self.K, fit, self.robust_scale_px)
+        inliers (:func:`flowvo.two_view.refined_motion`); None where USAC finds none."""
+        return essential_motion(points_prev, points_next, self.K, threshold_px=self.threshold_px,
+                                robust_scale_px=self.robust_scale_px)
 
     def _over_rotation_key(self, fit: EssentialMotion, key_fit: EssentialMotion | None, flow: GeometryFlow
                            ) -> EssentialMotion:
