@@ -29,12 +29,11 @@ MAX_ITERATIONS = 3  # per solve: a window solved every frame starts where the la
 
 class BundleResult(NamedTuple):
     """The refined poses ``T_world_cam`` (N, 4, 4) and points (P, 3, world, metres), which observations are
-    inliers after the solve (O,) and the reprojection error (px, rms over the inliers) before and after."""
+    inliers after the solve (O,) and their reprojection error after it (px, rms)."""
 
     T_world_cam: np.ndarray
     points_world: np.ndarray
     inlier: np.ndarray
-    rms_before_px: float
     rms_after_px: float
 
 
@@ -92,10 +91,9 @@ def adjust_bundle(T_world_cam: np.ndarray, points_world: np.ndarray, frame: np.n
     refined = np.stack([solved.atPose3(pose_key(i)).matrix() for i in range(count)])
     points = np.stack([solved.atPoint3(point_key(j)) for j in range(len(points_world))]) if len(points_world) \
         else np.zeros((0, 3))
-    before = reprojection_errors_px(T_world_cam, points_world, frame, point, observed_px, K)
     after = reprojection_errors_px(refined, points, frame, point, observed_px, K)
     inlier = after <= INLIER_SIGMAS * pixel_sigma_px
-    return BundleResult(refined, points, inlier, _rms(before[inlier]), _rms(after[inlier]))
+    return BundleResult(refined, points, inlier, _rms(after[inlier]))
 
 
 def _pixel_noise(gtsam, pixel_sigma_px: float, loss: str):
