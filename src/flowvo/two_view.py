@@ -176,11 +176,10 @@ def _refitted(rays_prev: np.ndarray, rays_next: np.ndarray, K: np.ndarray, fit: 
     distance_px = (rays_next * line_next).sum(axis=1) / denominator
     side = np.array([0.0, t[2], -t[1]]) if abs(t[0]) < 0.9 else np.array([-t[2], 0.0, t[0]])  # t x x or t x y
     side /= np.linalg.norm(side)
-    basis = (side, t_cross @ side)  # unit vectors orthogonal to t
+    basis = np.stack([side, t_cross @ side])  # unit vectors orthogonal to t
     jacobian = np.empty((len(rotated), 5))
     jacobian[:, :3] = (rotated @ t)[:, None] * rays_next - (rays_next * rotated).sum(axis=1)[:, None] * t
-    for column, direction in enumerate(basis, start=3):  # (R r1 x r2) . b = r2 . (b x R r1)
-        jacobian[:, column] = (rays_next * (rotated @ skew(direction).T)).sum(axis=1)
+    jacobian[:, 3:] = np.cross(rotated, rays_next) @ basis.T  # r2 . (b x R r1) = (R r1 x r2) . b
     jacobian /= denominator[:, None]
     update = np.zeros(5)
     for _ in range(reweightings):
