@@ -19,15 +19,15 @@ from flowvo.scale_window import StepRecord
 
 # Per step (10 Hz), against the truth on the real clips (309 steps of 01, 06 and 07, the default method; the
 # truth's own noise is in them, so they err on the safe side):
-ROTATION_SIGMA_RAD = np.radians(0.025)  # each axis: rms 0.022 (x), 0.025 (y), 0.026 deg (z)
+ROTATION_SIGMA_RAD = np.radians(0.025)  # each axis: rms 0.022 (x), 0.023 (y), 0.025 deg (z)
 DIRECTION_SIGMA_RAD = np.radians(0.5)  # the translation direction at speed (rms 0.39-0.46 deg above 1 m a step)
 DIRECTION_FLOOR_M = 0.0035  # sideways error that does not shrink with the step: at low speed the direction
 # scatters more (rms 1.5 / 1.1 / 0.8 deg at 0.1 / 0.3 / 0.55 m a step), about 0.2 deg m over the length
 STANDSTILL_SIGMA_M = 0.04  # a step called a standstill moved the near road (7 m ahead, 620 px) under 0.5 px
 UNMEASURED_LOG_SIGMA = 1.0  # a moving step nothing measured the length of: known to a factor of e
 # Drift per metre driven, each axis: steps' errors chained as independent leave most poses of the real clips
-# outside their 95 % ellipsoids (position 33 / 6 / 14 %, orientation 15 / 0 / 58 % inside on 01 / 06 / 07);
-# with these drifts 100 / 100 / 84 % and 100 / 78 / 100 % are inside
+# outside their 95 % ellipsoids (position 35 / 6 / 42 %, orientation 9 / 0 / 58 % inside on 01 / 06 / 07);
+# with these drifts 94 / 100 / 87 % and 100 / 78 / 100 % are inside
 DRIFT_FRACTION = 0.02  # metres per metre driven
 DRIFT_RAD_PER_M = np.radians(0.02)
 
