@@ -22,7 +22,7 @@ import numpy as np
 from _table import print_table
 
 from flowvo.batch import discover_drives, run_batch
-from flowvo.drive import RunOptions
+from flowvo.drive.options import RunOptions
 from flowvo.kitti.poses import read_kitti_poses, write_kitti_poses
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.trajectory import Trajectory

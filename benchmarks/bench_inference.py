@@ -12,8 +12,8 @@ import numpy as np
 import torch
 from _table import print_table
 
-from flowvo.bench import benchmark, format_bench_table
-from flowvo.drive import RunOptions
+from flowvo.drive.bench import benchmark, format_bench_table
+from flowvo.drive.options import RunOptions
 from flowvo.model.checkpoint import load_model, packaged_model_path
 from flowvo.model.export import export_onnx
 from flowvo.model.network import flops_per_frame, parameter_count

@@ -11,12 +11,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from flowvo.camera import Camera
-from flowvo.drive import RunOptions, open_drive
-from flowvo.evaluation import evaluate
+from flowvo.drive.options import RunOptions, open_drive
+from flowvo.drive.stream import stream_odometry, timing_report
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.methods.base import OdometryStep
 from flowvo.metrics.kitti_odometry import trajectory_distances
-from flowvo.stream import stream_odometry, timing_report
+from flowvo.report.evaluation import evaluate
 from flowvo.trajectory import Trajectory
 
 # clip -> sub-path lengths (m): 01 fits the devkit's 100 m, 06 and 07 are shorter than 100 m

@@ -1,4 +1,4 @@
-"""Print how well the default method's covariances (:mod:`flowvo.odometry_covariance`, written into the
+"""Print how well the default method's covariances (:mod:`flowvo.odometry.covariance`, written into the
 odometry MCAP) cover its errors on the real clips: per clip, the share of moving steps whose translation
 error, and of steps whose rotation error, lies inside the step covariance's 95 % ellipsoid, and the share of
 poses whose position and orientation errors lie inside the pose covariance's, with the drift and without it
@@ -15,10 +15,10 @@ from pathlib import Path
 import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
+from flowvo.drive.steps_csv import read_steps_csv
 from flowvo.geometry import invert_se3, relative_motions, so3_log
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.odometry_covariance import chained_covariances, records_covariances
-from flowvo.steps_csv import read_steps_csv
+from flowvo.odometry.covariance import chained_covariances, records_covariances
 
 CHI2_3DOF_95 = 7.815  # the 95 % quantile of a chi-square with 3 degrees of freedom
 

@@ -19,13 +19,13 @@ from pathlib import Path
 import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
-from flowvo.drive import RunOptions, open_drive
+from flowvo.drive.options import RunOptions, open_drive
+from flowvo.drive.stream import stream_odometry
 from flowvo.geometry import invert_se3
 from flowvo.methods.flowvo import FlowGeometryStep
-from flowvo.road_scale import trusted_road_plane
-from flowvo.scale_window import ScaleWindow
-from flowvo.stream import stream_odometry
-from flowvo.two_view import essential_motion
+from flowvo.odometry.road_scale import trusted_road_plane
+from flowvo.odometry.scale_window import ScaleWindow
+from flowvo.odometry.two_view import essential_motion
 
 MIN_STEP_M = 0.3  # the truth's direction of shorter steps is dominated by its own noise
 

@@ -16,8 +16,8 @@ from pathlib import Path
 
 import cv2
 
-from flowvo.evaluation import evaluate_files
 from flowvo.kitti.calib import read_calibration
+from flowvo.report.evaluation import evaluate_files
 
 CLIPS = {"01": (100.0,), "06": (10.0, 20.0, 30.0, 40.0, 50.0), "07": (10.0, 20.0, 30.0, 40.0, 50.0)}
 FRAME_RATE_HZ = 10.0  # KITTI's

@@ -10,10 +10,10 @@ OUT_DIR/seed_N/METHOD/NN)
 import sys
 from pathlib import Path
 
-from flowvo.drive import RunOptions
-from flowvo.evaluation import pooled_summary
-from flowvo.pipeline import run
-from flowvo.report import load_run
+from flowvo.drive.options import RunOptions
+from flowvo.drive.run import run
+from flowvo.report.evaluation import pooled_summary
+from flowvo.report.page import load_run
 from flowvo.synth.dataset import synthesize
 
 DRIVES = {0: ["00", "03", "22"], 1: ["02", "21"]}  # seed -> sequence names: each pair its own world and path

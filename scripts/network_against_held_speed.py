@@ -18,12 +18,12 @@ import cv2
 import numpy as np
 
 from flowvo.camera import undistort_points
-from flowvo.drive import RunOptions, open_drive
+from flowvo.drive.options import RunOptions, open_drive
+from flowvo.drive.steps_csv import read_steps_csv
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.methods.base import REFERENCE_WIDTH_PX
 from flowvo.methods.flowvo import FlowGeometryStep
-from flowvo.steps_csv import read_steps_csv
-from flowvo.two_view import essential_motion, translation_parallax_px
+from flowvo.odometry.two_view import essential_motion, translation_parallax_px
 
 BANDS_PX = ((0.0, 0.5), (0.5, 1.0), (1.0, 2.0), (2.0, np.inf))
 

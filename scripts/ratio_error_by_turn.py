@@ -15,10 +15,10 @@ import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 from frame_rate_clips import subsample_clip
 
-from flowvo.drive import RunOptions, open_drive
+from flowvo.drive.options import RunOptions, open_drive
+from flowvo.drive.stream import stream_odometry
 from flowvo.methods.flowvo import FlowGeometryStep
-from flowvo.scale_window import ScaleWindow
-from flowvo.stream import stream_odometry
+from flowvo.odometry.scale_window import ScaleWindow
 
 TURN_EDGES_DEG = (0.0, 1.0, 2.0, 3.0, 5.0, 180.0)
 

@@ -7,9 +7,9 @@ import json
 import sys
 from pathlib import Path
 
-from flowvo.evaluation import pooled_summary
-from flowvo.reference_system import REFERENCE_FIGURES
-from flowvo.report import load_run
+from flowvo.report.evaluation import pooled_summary
+from flowvo.report.page import load_run
+from flowvo.report.reference_system import REFERENCE_FIGURES
 
 METHODS = ("flowvo", "flowvo-geometry", "flowvo-pair", "flowvo-ba", "cnn", "classical", "classical_gt")
 SEQUENCES = ("08", "09", "10")

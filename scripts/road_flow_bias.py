@@ -5,7 +5,7 @@ road under a chosen motion (a step forward, then a yaw; the camera 1.65 m above 
 resolution, then both frames go to the working width as the default method prepares them. Two tables:
 
 - the road: the step length from the default method's road flow and road plane, given the exact motion
-  (:meth:`FlowGeometryStep.road_flow`, :func:`flowvo.road_scale.trusted_road_plane`), against the chosen
+  (:meth:`FlowGeometryStep.road_flow`, :func:`flowvo.odometry.road_scale.trusted_road_plane`), against the chosen
   length, without a prediction and with predictions that are exact or off in length or yaw;
 - the tracks: Lucas-Kanade as the default method tracks, under a pure yaw, the tracked motion against the
   exact one.
@@ -22,12 +22,12 @@ import cv2
 import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
-from flowvo.drive import RunOptions, open_drive
+from flowvo.drive.options import RunOptions, open_drive
 from flowvo.geometry import so3_exp
 from flowvo.methods.base import WorkingFrames
 from flowvo.methods.flowvo import TRACK_WINDOW_PX, FlowGeometryStep
-from flowvo.road_scale import RoadPlane, road_homography, trusted_road_plane
-from flowvo.two_view import EssentialMotion, lucas_kanade, textured_points
+from flowvo.odometry.road_scale import RoadPlane, road_homography, trusted_road_plane
+from flowvo.odometry.two_view import EssentialMotion, lucas_kanade, textured_points
 
 CAMERA_HEIGHT_M = 1.65
 FRAMES_PER_CLIP = 12  # every 8th frame of the clip
@@ -68,7 +68,8 @@ def road_length_errors(step: FlowGeometryStep, images: list[np.ndarray], K_full:
     errors = []
     for image in images:
         previous, current = warped_pair(step, image, K_full, flat_road_homography(K_full, step_m, yaw_rad))
-        plane = trusted_road_plane(*step.road_flow(previous, current, predicted), step.K, road_motion(step_m, yaw_rad))
+        road = step.road.measure(previous, current, predicted)
+        plane = trusted_road_plane(*road, step.K, road_motion(step_m, yaw_rad))
         errors.append(np.nan if plane is None else CAMERA_HEIGHT_M / plane.distance / step_m - 1.0)
     return np.array(errors)
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import numpy as np
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT
 
+from flowvo.drive.steps_csv import read_steps_csv
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.steps_csv import read_steps_csv
 
 MIN_TRUE_STEP_M = 0.2
 

@@ -11,10 +11,10 @@ import argparse
 from pathlib import Path
 
 from flowvo.camera import LensDistortion
-from flowvo.drive import RunOptions
+from flowvo.drive.options import RunOptions
+from flowvo.drive.run import run
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics.kitti_odometry import trajectory_distances
-from flowvo.pipeline import run
 from flowvo.synth.dataset import synthesize
 from flowvo.synth.synth_camera import SynthCamera
 

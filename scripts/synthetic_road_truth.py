@@ -14,9 +14,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flowvo.drive import RunOptions, make_step, open_drive
-from flowvo.road_scale import trusted_road_plane
-from flowvo.two_view import EssentialMotion
+from flowvo.drive.options import RunOptions, make_step, open_drive
+from flowvo.odometry.road_scale import trusted_road_plane
+from flowvo.odometry.two_view import EssentialMotion
 
 MIN_STEP_M = 0.05  # the true flow of a standstill has no depth to triangulate
 
@@ -28,7 +28,7 @@ def road_errors(root: Path, sequence: str) -> tuple[np.ndarray, int]:
     step = make_step(options, drive)
     height, width = drive.source.image_size_hw
     scale = np.array([step.working_hw[1] / width, step.working_hw[0] / height])
-    grid = step.road_px
+    grid = step.road.grid_px
     at_full = (grid / scale).astype(np.float32)
     poses = drive.source.ground_truth.T_world_cam
     flow_dir = root / "sequences" / sequence / "flow_gt"
@@ -45,7 +45,7 @@ def road_errors(root: Path, sequence: str) -> tuple[np.ndarray, int]:
         if plane is None:
             refused += 1
             continue
-        errors.append(step.camera_height_m / plane.distance / length_m - 1.0)
+        errors.append(step.camera.camera_height_m / plane.distance / length_m - 1.0)
     return np.array(errors), refused
 
 

@@ -14,10 +14,10 @@ from pathlib import Path
 
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT, stream_clip
 
-from flowvo.bundle_window import BundleSettings
 from flowvo.methods.cnn import load_cnn_step
 from flowvo.methods.flowvo import FlowGeometryStep
-from flowvo.scale_window import ScaleWindow
+from flowvo.odometry.bundle_window import BundleSettings
+from flowvo.odometry.scale_window import ScaleWindow
 
 DEFAULT_WINDOW: dict = {}
 VARIANTS: dict[str, tuple[dict | None, BundleSettings | None]] = {

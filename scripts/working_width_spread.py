@@ -13,7 +13,7 @@ from pathlib import Path
 from clip_runs import CLIPS, DEFAULT_CLIPS_ROOT, stream_clip
 
 from flowvo.methods.flowvo import FlowGeometryStep
-from flowvo.scale_window import ScaleWindow
+from flowvo.odometry.scale_window import ScaleWindow
 
 WIDTHS_PX = tuple(range(600, 641, 4))
 

@@ -20,7 +20,7 @@ from flowvo.batch.done import read_drive_outputs
 from flowvo.batch.lock import batch_lock
 from flowvo.cli import main
 from flowvo.errors import FlowvoError
-from flowvo.outputs import run_outputs
+from flowvo.io.outputs import run_outputs
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 NAMES = ["kitti__00", "kitti__01", "videos__broken.mp4", "videos__good.avi"]

@@ -1,11 +1,12 @@
-"""The local bundle adjustment (flowvo.bundle_adjustment) on exact synthetic cases: noise-free tracks give the true
+"""The local bundle adjustment (flowvo.odometry.bundle_adjustment) on exact synthetic cases: noise-free tracks
+give the true
 poses and points back, the robust loss rejects wrong tracks, and the steps' priors hold the scale."""
 
 import numpy as np
 import pytest
 
-from flowvo.bundle_adjustment import adjust_bundle, reprojection_errors_px
 from flowvo.geometry import relative_motions, so3_exp
+from flowvo.odometry.bundle_adjustment import adjust_bundle, reprojection_errors_px
 
 K = np.array([[700.0, 0.0, 310.0], [0.0, 700.0, 94.0], [0.0, 0.0, 1.0]])
 LOOSE = np.array([0.01, 0.01, 0.01, 0.05, 0.05, 0.05])  # rad and m: the priors barely hold the steps

@@ -1,12 +1,13 @@
-"""The bundle stage of flowvo-ba (flowvo.bundle_window) and its tracks over many frames (flowvo.landmark_tracks)."""
+"""The bundle stage of flowvo-ba (flowvo.odometry.bundle_window) and its tracks over many frames
+(flowvo.odometry.landmark_tracks)."""
 
 import cv2
 import numpy as np
 import pytest
 
-from flowvo.bundle_window import BundleSettings, BundleWindow
 from flowvo.geometry import invert_se3, relative_motions, rotation_angle_between_rad, so3_exp
-from flowvo.landmark_tracks import LandmarkTracker
+from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
+from flowvo.odometry.landmark_tracks import LandmarkTracker
 
 K = np.array([[700.0, 0.0, 310.0], [0.0, 700.0, 94.0], [0.0, 0.0, 1.0]])
 

@@ -1,6 +1,7 @@
 import json
 
-from flowvo.cli import _unscaled_warning, build_parser, main
+from flowvo.cli import build_parser, main
+from flowvo.cli.run import _unscaled_warning
 
 
 def test_every_subcommand_has_help(capsys):

@@ -11,7 +11,7 @@ import pytest
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
-from flowvo.road_scale import (
+from flowvo.odometry.road_scale import (
     FIT_REFERENCE_DEPTH,
     NetworkFallbackPolicy,
     RoadNormal,
@@ -21,9 +21,9 @@ from flowvo.road_scale import (
     road_homography,
     trusted_road_plane,
 )
-from flowvo.scale_window import ScaleWindow
-from flowvo.speed_prior import SpeedPrior
-from flowvo.two_view import EssentialMotion
+from flowvo.odometry.scale_window import ScaleWindow
+from flowvo.odometry.speed_prior import SpeedPrior
+from flowvo.odometry.two_view import EssentialMotion
 
 HW = (188, 620)
 CAMERA = Camera(CameraIntrinsics(359.0, 359.0, 303.0, 92.0), height_m=1.5)
@@ -42,11 +42,11 @@ def step_flow(step, step_m, yaw_rad=0.01, scene_moves=True, direction=(0.0, 0.0,
     scene = np.c_[rng.uniform(-15, 15, 300), rng.uniform(-5, 1.0, 300), rng.uniform(8, 50, 300)]
     R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
     t = -R @ (step_m * np.asarray(direction))
-    rays = np.c_[step.road_px_undistorted, np.ones(len(step.road_px))] @ np.linalg.inv(step.K).T
-    road = rays * (step.camera_height_m / rays[:, 1:2])  # the grid's rays hit the road plane y = height
+    rays = np.c_[step.road.grid_undistorted_px, np.ones(len(step.road.grid_px))] @ np.linalg.inv(step.K).T
+    road = rays * (step.camera.camera_height_m / rays[:, 1:2])  # the grid's rays hit the road plane y = height
     frame = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
     moved = (lambda x: x @ R.T + t) if scene_moves else (lambda x: x)
-    return GeometryFlow(project(step.K, scene), project(step.K, moved(scene)), step.road_px_undistorted,
+    return GeometryFlow(project(step.K, scene), project(step.K, moved(scene)), step.road.grid_undistorted_px,
                         project(step.K, moved(road)), frame)
 
 
@@ -176,10 +176,10 @@ def test_a_slowly_moving_road_keeps_its_key_frame_and_scales_the_step_by_time():
     previous = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
     slow = step_flow(step, 0.2)  # a small road motion: under the key frame threshold
     assert np.linalg.norm(step.motion((0.0, 0.1), previous, slow)[:3, 3]) == pytest.approx(0.2, rel=1e-4)
-    assert step._road_key is previous and step._key_steps == 1  # the next step measures from the same frame
+    assert step.road_key.frame is previous  # the next step measures from the same frame
     fast = step_flow(step, 1.0)
     step.motion((0.1, 0.2), previous, fast)
-    assert step._road_key is None  # the road moved enough: the next step starts from this frame
+    assert step.road_key.frame is None  # the road moved enough: the next step starts from this frame
 
 
 @pytest.mark.parametrize(("dt_s", "predicted"), [(0.1, True), (0.02, False)])
@@ -191,8 +191,8 @@ def test_a_kept_key_frame_predicts_the_next_road_flow_only_below_6_mps(dt_s, pre
     previous = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
     for k in range(2):
         step.motion((k * dt_s, (k + 1) * dt_s), previous, step_flow(step, 0.2))
-    assert step._road_key is previous
-    assert (step._road_prediction is not None) == predicted
+    assert step.road_key.frame is previous
+    assert (step.road_key.prediction is not None) == predicted
 
 
 def test_onward_road_homography_maps_the_key_frames_road_into_the_next_frame_exactly():
@@ -269,9 +269,9 @@ def test_road_flow_of_an_exactly_moved_road_gives_its_step_length(predicted_m):
     previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
     current = cv2.warpPerspective(previous, moved_by(1.0), HW[::-1], flags=cv2.INTER_CUBIC,
                                   borderMode=cv2.BORDER_REFLECT)
-    road = step.road_flow(previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8),
+    road = step.road.measure(previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8),
                           None if predicted_m is None else moved_by(predicted_m))
-    assert len(road[0]) < len(step.road_px)  # the nearest road points left the frame
+    assert len(road[0]) < len(step.road.grid_px)  # the nearest road points left the frame
     plane = trusted_road_plane(*road, step.K, motion)
     assert CAMERA.height_m / plane.distance == pytest.approx(1.0, rel=0.01)
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from hostile import cli, refused, tree_digest
 
-from flowvo.speed_prior import SpeedPrior
+from flowvo.odometry.speed_prior import SpeedPrior
 from flowvo.synth.dataset import synthesize
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -220,7 +220,7 @@ def test_sigterm_during_a_pooled_synth_is_one_line_exit_143(tmp_path):
 
 
 def test_ctrl_c_that_surfaces_as_another_error_is_still_one_line(capsys, monkeypatch, data, tmp_path):
-    from flowvo import evaluation
+    from flowvo.report import evaluation
 
     def import_cut_short(*args, **kwargs):
         try:

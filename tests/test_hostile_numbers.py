@@ -11,7 +11,7 @@ import pytest
 import torch
 from hostile import cli, refused
 
-from flowvo.atomic import strict_json_dumps
+from flowvo.io.atomic import strict_json_dumps
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics.trajectory_errors import per_frame_errors, rpe
 from flowvo.synth.dataset import synthesize

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from hostile import cli, refused, tree_digest
 
-from flowvo.outputs import LOCK_NAME, output_lock, staged_outputs
+from flowvo.io.outputs import LOCK_NAME, output_lock, staged_outputs
 from flowvo.synth.dataset import synthesize
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -94,7 +94,7 @@ def test_a_second_writer_of_the_same_folder_is_refused_naming_the_holder(data, t
 def test_the_lock_is_held_by_a_running_process_and_dies_with_it(tmp_path):
     out = tmp_path / "r"
     out.mkdir()
-    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from flowvo.outputs import output_lock\n"
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time; from flowvo.io.outputs import output_lock\n"
                                f"with output_lock({str(out)!r}):\n    print('held', flush=True); time.sleep(60)"],
                               stdout=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(SRC)})
     try:
@@ -122,7 +122,7 @@ def test_force_keeps_the_earlier_result_until_the_new_one_is_complete(data, tmp_
     out = tmp_path / "r"
     assert cli(capsys, *classical(data, out))[0] == 0
     before = tree_digest(out)
-    from flowvo import pipeline
+    from flowvo.drive import run as pipeline
 
     def fail(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), None)
@@ -146,7 +146,7 @@ def test_force_removes_a_stale_entry_only_after_the_new_result(tmp_path):
 
 
 def test_disk_full_during_a_write_names_the_file(tmp_path, capsys, monkeypatch):
-    from flowvo.atomic import write_text_atomic
+    from flowvo.io.atomic import write_text_atomic
 
     def full(fd):  # a full disk shows at the flush or fsync of a write, which names no file
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))

@@ -8,7 +8,7 @@ import pytest
 from scipy.linalg import expm, logm
 
 from flowvo.geometry import chain_se3, invert_se3, skew, so3_exp, so3_log
-from flowvo.odometry_covariance import (
+from flowvo.odometry.covariance import (
     DIRECTION_FLOOR_M,
     DIRECTION_SIGMA_RAD,
     DRIFT_FRACTION,
@@ -23,7 +23,7 @@ from flowvo.odometry_covariance import (
     records_covariances,
     step_covariances,
 )
-from flowvo.scale_window import StepRecord
+from flowvo.odometry.scale_window import StepRecord
 
 
 def motion(forward_m: float, yaw_rad: float = 0.0) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Rotations measured from a key frame up to 0.1 s back at frame rates above 10 Hz (flowvo.rotation_key), the
+"""Rotations measured from a key frame up to 0.1 s back at frame rates above 10 Hz (flowvo.odometry.rotation_key), the
 direction of travel under a given rotation (two_view.direction_given_rotation), and the default method taking
 a 30 frames/s step's rotation from its key frame, on exact correspondences."""
 
@@ -8,8 +8,8 @@ import pytest
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
-from flowvo.rotation_key import RotationKeyFrame
-from flowvo.two_view import direction_given_rotation
+from flowvo.odometry.rotation_key import RotationKeyFrame
+from flowvo.odometry.two_view import direction_given_rotation
 
 HW = (188, 620)
 CAMERA = Camera(CameraIntrinsics(359.0, 359.0, 303.0, 92.0), height_m=1.5)
@@ -85,15 +85,15 @@ def thirty_fps_steps(key_yaw_error_deg=0.0):
     scenes = [SCENE]
     for _ in range(3):
         scenes.append(scenes[-1] @ R_step.T + R_step @ t_step)
-    rays = np.c_[step.road_px_undistorted, np.ones(len(step.road_px))] @ np.linalg.inv(step.K).T
-    road = rays * (step.camera_height_m / rays[:, 1:2])
+    rays = np.c_[step.road.grid_undistorted_px, np.ones(len(step.road.grid_px))] @ np.linalg.inv(step.K).T
+    road = rays * (step.camera.camera_height_m / rays[:, 1:2])
     frames = [GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY) for _ in scenes]
     motions = []
     for k in range(1, 4):
-        key = (None, None) if step.rotation_key.frame is None else \
+        key = (None, None) if step.checks.rotation_key.frame is None else \
             (project(SCENE), project(scenes[k] @ key_rotation_error.T))
-        assert step.rotation_key.frame is (None if k == 1 else frames[0])
-        flow = GeometryFlow(project(scenes[k - 1]), project(scenes[k] @ PITCH_ERROR.T), step.road_px_undistorted,
+        assert step.checks.rotation_key.frame is (None if k == 1 else frames[0])
+        flow = GeometryFlow(project(scenes[k - 1]), project(scenes[k] @ PITCH_ERROR.T), step.road.grid_undistorted_px,
                             project(road @ R_step.T + R_step @ t_step), frames[k], rotation_key_prev=key[0],
                             rotation_key_next=key[1])
         motions.append(step.motion(((k - 1) / 30, k / 30), frames[k - 1], flow))

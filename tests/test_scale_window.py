@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from flowvo.geometry import invert_se3, so3_exp
-from flowvo.scale_propagation import step_length_ratio
-from flowvo.scale_window import (
+from flowvo.odometry.scale_propagation import step_length_ratio
+from flowvo.odometry.scale_window import (
     CONVERGED_LOG,
     ROAD_SIGMA,
     ScaleWindow,
@@ -17,7 +17,7 @@ from flowvo.scale_window import (
     robust_log_lengths,
     scipy_log_lengths,
 )
-from flowvo.two_view import EssentialMotion, se3_next_prev
+from flowvo.odometry.two_view import EssentialMotion, se3_next_prev
 
 K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from flowvo.speed_prior import MAX_EXTRAPOLATION_S, RESTART_SPEED_MPS, SpeedPrior, robust_line_value
+from flowvo.odometry.speed_prior import MAX_EXTRAPOLATION_S, RESTART_SPEED_MPS, SpeedPrior, robust_line_value
 
 
 def test_a_line_through_exact_measurements_is_reproduced():

@@ -2,8 +2,8 @@
 
 import pytest
 
-from flowvo.scale_window import StepRecord
-from flowvo.steps_csv import HEADER, read_steps_csv, write_steps_csv
+from flowvo.drive.steps_csv import HEADER, read_steps_csv, write_steps_csv
+from flowvo.odometry.scale_window import StepRecord
 
 
 def test_each_step_is_a_row_and_a_missing_sigma_an_empty_cell(tmp_path):

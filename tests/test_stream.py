@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
+from flowvo.drive.stream import stream_odometry
 from flowvo.errors import FlowvoError
 from flowvo.methods.base import NoWindow
-from flowvo.stream import stream_odometry
 
 
 class CountingStep(NoWindow):

@@ -9,10 +9,10 @@ import pytest
 
 from flowvo.camera import LensDistortion, undistort_points
 from flowvo.cli import main
-from flowvo.drive import RunOptions, open_drive
+from flowvo.drive.options import RunOptions, open_drive
+from flowvo.drive.run import run
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
-from flowvo.pipeline import run
 from flowvo.synth.camera_path import generate_path
 from flowvo.synth.dataset import sequence_seed, synthesize
 from flowvo.synth.render import pixel_rays, render
@@ -130,7 +130,7 @@ def kitti_camera_metrics(tmp_path_factory) -> dict:
 ])
 def test_default_method_on_a_low_wide_distorted_camera_is_within_1_3x_of_kitti_camera(camera, kitti_camera_metrics,
                                                                                        tmp_path):
-    """t_err and r_err: at 30 frames/s each rotation is measured over 0.1 s (flowvo.rotation_key); chained from
+    """t_err and r_err: at 30 frames/s each rotation is measured over 0.1 s (flowvo.odometry.rotation_key); chained from
     pairs, r_err read 0.0213 against the KITTI camera's 0.0067 deg/m (t_err 1.32 against 1.35 %)."""
     metrics = _metrics(tmp_path, camera)
     for error in ("t_err_percent", "r_err_deg_per_m"):

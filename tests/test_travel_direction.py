@@ -3,7 +3,7 @@ speed can travel is refused for the last one taken at speed; a slow car's is nev
 
 import numpy as np
 
-from flowvo.travel_direction import TravelDirection
+from flowvo.odometry.travel_direction import TravelDirection
 
 FORWARD = np.array([0.0, 0.0, 1.0])
 

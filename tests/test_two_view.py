@@ -5,14 +5,14 @@ import pytest
 
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import rotation_angle_between_rad, so3_exp
-from flowvo.road_scale import (
+from flowvo.odometry.road_scale import (
     fit_road_plane,
     road_grid,
     road_points_in_view,
     road_step_length_m,
     trusted_road_plane,
 )
-from flowvo.two_view import (
+from flowvo.odometry.two_view import (
     EssentialMotion,
     essential_motion,
     motion_along,
@@ -292,7 +292,7 @@ def test_road_grid_lies_in_the_band_ahead_of_the_camera():
 
 
 def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_planes_lean_alike():
-    from flowvo.road_scale import MIN_TILTED_FOR_HINT, RoadPlane, RoadPlaneTally
+    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT, RoadPlane, RoadPlaneTally
 
     def leaning(pitch_deg):
         pitch = np.radians(pitch_deg)

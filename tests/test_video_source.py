@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from flowvo.drive import RunOptions, open_drive
+from flowvo.drive.options import RunOptions, open_drive
 from flowvo.errors import FlowvoError
 from flowvo.sources import video as video_module
 from flowvo.sources.video import next_timestamp_s, open_video_source

@@ -4,7 +4,7 @@ last yaw rate taken; a change that holds over two steps is real and is taken fro
 import numpy as np
 import pytest
 
-from flowvo.yaw_rate import YawRateCheck
+from flowvo.odometry.yaw_rate import YawRateCheck
 
 UP = np.array([0.0, 1.0, 0.0])
 SLOW = 2.0  # m/s: below the speed from which the yaw rate is not checked

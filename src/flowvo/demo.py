@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo.drive import RunOptions
+from flowvo.drive.options import RunOptions
+from flowvo.drive.run import run
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M, trajectory_distances
-from flowvo.pipeline import run
-from flowvo.report import write_report
+from flowvo.report.page import write_report
 from flowvo.synth.dataset import synthesize
 
 DEMO_SEED = 2026  # the packaged model's training worlds use seed 0: this world and path are unseen

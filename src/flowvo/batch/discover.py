@@ -29,8 +29,8 @@ from typing import Any
 from flowvo.batch.manifest import ManifestLine, is_manifest, read_manifest
 from flowvo.batch.spec import Drive
 from flowvo.errors import FlowvoError
+from flowvo.io.outputs import is_inside
 from flowvo.kitti.sequence import sequence_name
-from flowvo.outputs import is_inside
 from flowvo.sources.rosbag import BAG_FILE_SUFFIXES
 
 VIDEO_SUFFIXES = (".mp4", ".m4v", ".mov", ".avi", ".mkv", ".webm", ".mpg", ".mpeg", ".ts", ".mts", ".m2ts",

@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from flowvo.errors import FlowvoError
+from flowvo.io.outputs import validate_name
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.outputs import validate_name
 
 
 @dataclass(frozen=True)

@@ -27,9 +27,9 @@ from flowvo.batch.record import DriveSummary, summarize
 from flowvo.batch.spec import Drive, check_drive_options, drive_folder, drive_run_options, processing_settings
 from flowvo.batch.summary import batch_totals, read_summary, write_summary
 from flowvo.batch.worker import PRELOAD_MODULES, run_drive
-from flowvo.drive import RunOptions
+from flowvo.drive.options import RunOptions
 from flowvo.errors import FlowvoError
-from flowvo.outputs import is_inside, prepare_output_dir, validate_name
+from flowvo.io.outputs import is_inside, prepare_output_dir, validate_name
 from flowvo.progress import progress_bar
 
 SUMMARY_EVERY_S = 5.0  # while running, the summary files are rewritten at most this often (and at the end)

@@ -7,11 +7,11 @@ import html
 from pathlib import Path
 from typing import Any
 
-from flowvo.atomic import write_text_atomic
 from flowvo.batch.done import DriveOutputs
 from flowvo.batch.record import DriveSummary
 from flowvo.batch.spec import Drive
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import write_text_atomic
 from flowvo.kitti.poses import read_kitti_poses
 
 _ORDER = {"failed": 0, "pending": 1, "ok": 2}
@@ -33,7 +33,7 @@ def thumbnail_path(out: str | Path, name: str) -> Path:
 
 def write_thumbnail(drive: Drive, outputs: DriveOutputs, out: str | Path) -> Path:
     """Draw the drive's x-z path (and its ground truth, for a KITTI sequence that has one)."""
-    from flowvo.plots import plot_path_thumbnail
+    from flowvo.report.plots import plot_path_thumbnail
 
     gt_positions_m = None
     if drive.kind == "kitti":

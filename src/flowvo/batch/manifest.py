@@ -29,8 +29,8 @@ from typing import Any
 
 from flowvo.batch.spec import DRIVE_KINDS
 from flowvo.errors import FlowvoError
+from flowvo.io.outputs import validate_name
 from flowvo.methods import METHODS
-from flowvo.outputs import validate_name
 
 MANIFEST_SUFFIXES = (".csv", ".jsonl", ".ndjson")
 _POSITIVE = ("fx", "fy", "camera_height_m")  # finite, > 0

@@ -12,9 +12,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from flowvo.atomic import strict_json_dumps
-from flowvo.drive import RunOptions
+from flowvo.drive.options import RunOptions
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import strict_json_dumps
 
 DRIVE_KINDS = ("kitti", "video", "bag")
 INTRINSICS_FIELDS = ("calib", "fx", "fy", "cx", "cy")

@@ -11,9 +11,9 @@ from pathlib import Path
 from typing import Any
 
 from flowvo import __version__
-from flowvo.atomic import write_json_atomic, write_text_atomic
 from flowvo.batch.record import STATUSES, DriveSummary
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import write_json_atomic, write_text_atomic
 
 CSV_FIELDS = tuple(f.name for f in dataclasses.fields(DriveSummary) if f.name != "settings")
 

@@ -15,17 +15,17 @@ import time
 import traceback
 from pathlib import Path
 
-from flowvo.atomic import write_text_atomic
 from flowvo.batch.done import read_drive_outputs
 from flowvo.batch.record import DriveSummary, summarize
 from flowvo.batch.spec import Drive, drive_folder, drive_run_options, processing_settings
-from flowvo.drive import RunOptions
+from flowvo.drive.options import RunOptions
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import write_text_atomic
 from flowvo.progress import set_progress_enabled
 
 # Imported once by the local fork server, so each drive's fresh process starts with them loaded.
-PRELOAD_MODULES = ("numpy", "cv2", "torch", "matplotlib.pyplot", "flowvo.pipeline",
-                   "flowvo.odometry_step", "flowvo.stream", "flowvo.plots")
+PRELOAD_MODULES = ("numpy", "cv2", "torch", "matplotlib.pyplot", "flowvo.drive.run",
+                   "flowvo.methods.flowvo", "flowvo.drive.stream", "flowvo.report.plots")
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")  # for pools started later
 _MAX_ERROR_CHARS = 500
 
@@ -34,7 +34,7 @@ def run_drive(drive: Drive, defaults: RunOptions, out: str | Path) -> DriveSumma
     """Run ``drive`` with ``defaults`` (see :func:`drive_run_options`) into ``OUT/drives/NAME``, replacing
     whatever that folder held, then draw its path thumbnail; returns its summary line."""
     from flowvo.batch.index_page import write_thumbnail
-    from flowvo.pipeline import run
+    from flowvo.drive.run import run
 
     limit_threads()
     set_progress_enabled(False)

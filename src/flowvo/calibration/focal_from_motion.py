@@ -37,8 +37,8 @@ from scipy.spatial.transform import Rotation
 
 from flowvo.calibration.motion_pairs import PointPair
 from flowvo.methods.base import REFERENCE_WIDTH_PX  # the pixel thresholds below are set at this width
+from flowvo.odometry.two_view import essential_motion
 from flowvo.progress import progress
-from flowvo.two_view import essential_motion
 
 SEARCH_RANGE_WIDTHS = (0.3, 3.0)  # focal lengths searched, in image widths: 118 deg to 19 deg field of view
 COARSE_STEP = 1.1  # ratio between neighbouring focal lengths of the first grid

@@ -1,7 +1,7 @@
 """Point correspondences between frames far enough apart to show the camera's rotation, from a stream of
 frames: the input of :mod:`flowvo.calibration.focal_from_motion`.
 
-Textured points (:func:`flowvo.two_view.textured_points`) of a start frame are tracked frame to frame
+Textured points (:func:`flowvo.odometry.two_view.textured_points`) of a start frame are tracked frame to frame
 (Lucas-Kanade, each step checked forward-backward) until fewer than ``END_POINTS`` are left (the others left
 the view, were occluded or failed the check); the start frame and the frame before that then form a pair. A new start
 frame is taken whenever the newest chain has moved ``START_MOTION_PX``, so pairs overlap and adapt to the
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.two_view import textured_points, track_points_checked
+from flowvo.odometry.two_view import textured_points, track_points_checked
 
 CHAIN_POINTS = 1500  # textured points per start frame: at 620 px wide nearly every 8 px cell of the frame
 RETURN_PX = 1.0  # forward-backward check: a track must return within this (compressed video: ~0.5 px noise)

@@ -23,9 +23,9 @@ import cv2
 import numpy as np
 
 from flowvo import __version__
-from flowvo.atomic import atomic_open, write_json_atomic
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import FlowEstimator
+from flowvo.io.atomic import atomic_open, write_json_atomic
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.progress import progress
 

@@ -16,7 +16,7 @@ import torch.nn.functional as F
 from torch import nn
 
 from flowvo.errors import FlowvoError
-from flowvo.torch_files import load_torch_file
+from flowvo.io.torch_files import load_torch_file
 
 DIV_FLOW = 20.0
 MEAN_RGB = (0.411, 0.432, 0.45)

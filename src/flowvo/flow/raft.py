@@ -12,7 +12,7 @@ import numpy as np
 import torch
 
 from flowvo.errors import FlowvoError
-from flowvo.torch_files import load_torch_file
+from flowvo.io.torch_files import load_torch_file
 
 
 class RaftFlow:

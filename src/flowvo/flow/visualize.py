@@ -10,7 +10,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flowvo.atomic import atomic_path
+from flowvo.io.atomic import atomic_path
 
 # transitions of the Middlebury wheel: red-yellow, yellow-green, green-cyan, cyan-blue, blue-magenta, magenta-red
 _SEGMENTS = (15, 6, 4, 11, 13, 6)

@@ -16,7 +16,7 @@ import numpy as np
 
 from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height, check_camera_pitch
 from flowvo.errors import FlowvoError
-from flowvo.text_numbers import parse_float
+from flowvo.io.text_numbers import parse_float
 
 REQUIRED_KEYS = ("P0",)
 CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m", "camera_pitch_deg")

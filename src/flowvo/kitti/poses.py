@@ -13,9 +13,9 @@ from pathlib import Path
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from flowvo.atomic import atomic_open
 from flowvo.errors import FlowvoError
-from flowvo.text_numbers import parse_float
+from flowvo.io.atomic import atomic_open
+from flowvo.io.text_numbers import parse_float
 from flowvo.trajectory import Trajectory
 
 _ORTHONORMAL_TOLERANCE = 1e-2

@@ -16,10 +16,10 @@ import cv2
 import numpy as np
 
 from flowvo.errors import FlowvoError
+from flowvo.io.outputs import check_path_text, validate_name
+from flowvo.io.text_numbers import parse_float
 from flowvo.kitti.calib import Calibration, read_calibration
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.outputs import check_path_text, validate_name
-from flowvo.text_numbers import parse_float
 from flowvo.trajectory import Trajectory
 
 _FRAME_NAME = re.compile(r"^(\d{6})\.png$")
@@ -37,7 +37,7 @@ def png_size(path: Path) -> tuple[int, int]:
 
 
 def sequence_name(name: str) -> str:
-    """The canonical name of a sequence: a plain name (see :func:`flowvo.outputs.validate_name`), digits
+    """The canonical name of a sequence: a plain name (see :func:`flowvo.io.outputs.validate_name`), digits
     zero-padded to two as KITTI names them (``9`` -> ``09``, ``000`` -> ``00``)."""
     text = validate_name(name)
     return f"{int(text):02d}" if text.isdigit() else text

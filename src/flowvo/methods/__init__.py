@@ -15,9 +15,21 @@ from flowvo.geometry import planar_targets
 
 if TYPE_CHECKING:
     from flowvo.camera import Camera
-    from flowvo.drive import RunOptions
     from flowvo.methods.base import OdometryStep
     from flowvo.sources.base import FrameSource
+
+
+@dataclass(frozen=True)
+class MethodOptions:
+    """What a method is built with, besides its drive: its ``name``, the network checkpoint (``model``; None: the
+    packaged one), the ``flow_method`` (None: the method's own), the scale window's ``latency_frames`` (None: its
+    default) and the classical method's scale (``classical_scale``: "height", or "gt" for the true step lengths)."""
+
+    name: str
+    model: str | None = None
+    flow_method: str | None = None
+    latency_frames: int | None = None
+    classical_scale: str = "height"
 
 
 @dataclass(frozen=True)
@@ -28,7 +40,7 @@ class Method:
     name: str
     summary: str
     stages: tuple[str, ...]
-    build: Callable[[RunOptions, FrameSource, Camera], OdometryStep]
+    build: Callable[[MethodOptions, FrameSource, Camera], OdometryStep]
 
     @property
     def windowed(self) -> bool:
@@ -37,11 +49,11 @@ class Method:
 
 
 def _flowvo(with_network: bool, with_window: bool, with_bundle: bool = False) -> Callable[..., Any]:
-    def build(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
-        from flowvo.bundle_window import BundleSettings
+    def build(options: MethodOptions, source: FrameSource, camera: Camera) -> OdometryStep:
         from flowvo.methods.cnn import load_cnn_step
         from flowvo.methods.flowvo import DEFAULT_ROAD_FLOW_METHOD, FlowGeometryStep
-        from flowvo.scale_window import ScaleWindow
+        from flowvo.odometry.bundle_window import BundleSettings
+        from flowvo.odometry.scale_window import ScaleWindow
 
         if not with_window:
             _no_latency(options)
@@ -55,21 +67,21 @@ def _flowvo(with_network: bool, with_window: bool, with_bundle: bool = False) ->
     return build
 
 
-def _no_latency(options: RunOptions) -> None:
+def _no_latency(options: MethodOptions) -> None:
     """Refuse ``--latency`` for a method without a scale window (its poses are final at once)."""
     if options.latency_frames:
         raise FlowvoError("--latency applies to the windowed methods (flowvo, flowvo-geometry, flowvo-ba); "
-                          f"{options.method} gives every pose at once")
+                          f"{options.name} gives every pose at once")
 
 
-def _cnn(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
+def _cnn(options: MethodOptions, source: FrameSource, camera: Camera) -> OdometryStep:
     from flowvo.methods.cnn import load_cnn_step
 
     _no_latency(options)
     return load_cnn_step(camera, source.image_size_hw, options.model, options.flow_method)
 
 
-def _classical(options: RunOptions, source: FrameSource, camera: Camera) -> OdometryStep:
+def _classical(options: MethodOptions, source: FrameSource, camera: Camera) -> OdometryStep:
     from flowvo.methods.classical import ClassicalStep
 
     _no_latency(options)

@@ -12,7 +12,7 @@ window stage (a stream runs it in the motion thread after each step's ``motion``
 returns the motions that are
 final, ``latency_frames`` steps late (at once for the methods without a window, :class:`NoWindow`);
 ``flush()`` returns the rest at the end of the drive; ``step_records()``, what became of each final step
-(the windowed methods: :class:`flowvo.scale_window.StepRecord`; None for the others).
+(the windowed methods: :class:`flowvo.odometry.scale_window.StepRecord`; None for the others).
 ``summary()`` reports what the method wants kept in run.json.
 """
 

@@ -13,12 +13,12 @@ from pathlib import Path
 
 import torch
 
-from flowvo.atomic import atomic_path
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import atomic_path
+from flowvo.io.torch_files import load_torch_file
 from flowvo.model.config import ModelConfig
 from flowvo.model.network import OdometryNet
 from flowvo.model.preprocess import Normalization
-from flowvo.torch_files import load_torch_file
 
 FORMAT = "flowvo-odometry-v1"
 RUNNABLE_KEYS = ("model_config", "normalization", "model_state")

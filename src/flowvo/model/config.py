@@ -8,9 +8,9 @@ from pathlib import Path
 
 import yaml
 
-from flowvo.atomic import write_text_atomic
 from flowvo.errors import FlowvoError
 from flowvo.flow.cache_root import default_cache_root
+from flowvo.io.atomic import write_text_atomic
 from flowvo.kitti.sequence import sequence_name
 
 SPLITS = {

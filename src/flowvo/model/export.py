@@ -11,7 +11,7 @@ from pathlib import Path
 
 import torch
 
-from flowvo.atomic import atomic_open, atomic_path, write_json_atomic
+from flowvo.io.atomic import atomic_open, atomic_path, write_json_atomic
 from flowvo.model.checkpoint import load_model
 from flowvo.model.deployable import DeployableOdometry
 from flowvo.model.export_format import INPUT_NAME, METADATA_KEY, ONNX_OPSET, OUTPUT_NAME, describe

@@ -9,7 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from flowvo.atomic import atomic_path  # noqa: E402
+from flowvo.io.atomic import atomic_path  # noqa: E402
 
 
 def plot_learning_curve(history: list[dict], path: str | Path, best_epoch: int,

@@ -19,10 +19,11 @@ import torch.distributed as dist
 from torch.nn.parallel import DistributedDataParallel
 from torch.utils.data import DataLoader, DistributedSampler
 
-from flowvo.atomic import atomic_open
 from flowvo.errors import FlowvoError
 from flowvo.flow.cache import FlowCache
 from flowvo.flow.registry import create_estimator
+from flowvo.io.atomic import atomic_open
+from flowvo.io.outputs import prepare_output_dir, remove_outputs
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.metrics import kitti_odometry as kitti
 from flowvo.model.checkpoint import check_compatible, read_resumable_checkpoint, save_checkpoint
@@ -32,7 +33,6 @@ from flowvo.model.device import check_device
 from flowvo.model.inference import chain_motions, predict_targets
 from flowvo.model.network import OdometryNet
 from flowvo.model.preprocess import Normalization
-from flowvo.outputs import prepare_output_dir, remove_outputs
 from flowvo.progress import progress
 from flowvo.trajectory import Trajectory
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.geometry import relative_motions, so3_log
-from flowvo.odometry_covariance import in_parent_axes
+from flowvo.odometry.covariance import in_parent_axes
 
 # Coordinates in the optical frame (x right, y down, z forward) to forward-left-up: x_flu = z, y_flu = -x, z_flu = -y.
 R_FLU_OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
@@ -51,7 +51,7 @@ def camera_twists(timestamps_s: np.ndarray, T_world_cam: np.ndarray) -> tuple[np
 
 def camera_twist_covariances(timestamps_s: np.ndarray, step_covariance: np.ndarray) -> np.ndarray:
     """Covariances (N, 6, 6) of :func:`camera_twists` (linear then angular, in the camera frame of each
-    frame) from the steps' covariances (N - 1, 6, 6; :mod:`flowvo.odometry_covariance`, in the same
+    frame) from the steps' covariances (N - 1, 6, 6; :mod:`flowvo.odometry.covariance`, in the same
     frame): each step's over its duration squared (frame 0 takes the first step's, as its twist does)."""
     dt_s = np.diff(np.asarray(timestamps_s, dtype=np.float64))
     twist = np.asarray(step_covariance, dtype=np.float64) / dt_s[:, None, None] ** 2
@@ -59,6 +59,6 @@ def camera_twist_covariances(timestamps_s: np.ndarray, step_covariance: np.ndarr
 
 
 def odom_pose_covariances(T_world_cam: np.ndarray, pose_covariance: np.ndarray) -> np.ndarray:
-    """Pose covariances (N, 6, 6) each in its camera's frame (:func:`flowvo.odometry_covariance.odometry_covariances`)
+    """Pose covariances (N, 6, 6) each in its camera's frame (:func:`flowvo.odometry.covariance.odometry_covariances`)
     along the odom frame's axes, as nav_msgs/Odometry's pose covariance is read."""
     return in_parent_axes(odom_poses(T_world_cam)[:, :3, :3], pose_covariance)

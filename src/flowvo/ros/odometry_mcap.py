@@ -9,7 +9,7 @@ forward-left-up at the first camera; child ``camera_optical``).
 Per frame, stamped with the image's stamp (header stamp = MCAP log and publish time):
 - ``odometry_topic`` (nav_msgs/Odometry): pose of the child in the parent frame; twist of the child in the
   child frame, as ROS defines it (``flowvo.ros.frames.camera_twists``); with their covariances when given
-  (:mod:`flowvo.odometry_covariance`: the twist's in the child frame, the pose's along the parent's axes),
+  (:mod:`flowvo.odometry.covariance`: the twist's in the child frame, the pose's along the parent's axes),
   else zero.
 - ``tf_topic`` (tf2_msgs/TFMessage): the same transform, parent -> child.
 Once, at the first frame's stamp, with the whole trajectory (one PoseStamped per frame with its own stamp):
@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from flowvo.atomic import atomic_path
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import atomic_path
 from flowvo.kitti.poses import rotation_to_quaternion_xyzw
 from flowvo.ros.extra import require_ros_extra
 from flowvo.ros.frames import camera_twist_covariances, camera_twists, odom_pose_covariances, odom_poses
@@ -48,7 +48,7 @@ def write_odometry_mcap(path: str | Path, timestamps_s: np.ndarray, T_world_cam:
     ``timestamps_s`` (N,; seconds, non-negative, strictly increasing; rounded to nanoseconds), or with
     ``exact_stamps_ns`` (N,) when given (the images' own integer stamps), to the MCAP file ``path``,
     atomically (a temporary file renamed into place); returns ``path``. ``covariances``: the steps' (N - 1,
-    6, 6) and the poses' (N, 6, 6), each in its camera's frame (:mod:`flowvo.odometry_covariance`); without
+    6, 6) and the poses' (N, 6, 6), each in its camera's frame (:mod:`flowvo.odometry.covariance`); without
     them the messages' covariances are zero.
 
     Raises ValueError for arrays of the wrong shape or stamps out of order, and FlowvoError for frame ids

@@ -30,7 +30,7 @@ import numpy as np
 
 from flowvo.camera import Camera
 from flowvo.errors import FlowvoError
-from flowvo.outputs import check_path_text
+from flowvo.io.outputs import check_path_text
 from flowvo.sources.base import safe_source_name
 from flowvo.trajectory import Trajectory
 

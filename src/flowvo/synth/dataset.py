@@ -7,9 +7,9 @@ import shutil
 from pathlib import Path
 
 from flowvo.errors import FlowvoError
+from flowvo.io.outputs import check_path_text
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import sequence_name
-from flowvo.outputs import check_path_text
 from flowvo.synth.camera_path import PathConfig, generate_path
 from flowvo.synth.frame_rate import frames_spanning, path_frames_for
 from flowvo.synth.replay_path import consistent_heights, drivable_heights, levelled

@@ -16,9 +16,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flowvo.atomic import atomic_path, write_json_atomic, write_text_atomic
 from flowvo.camera import LensDistortion
 from flowvo.geometry import invert_se3
+from flowvo.io.atomic import atomic_path, write_json_atomic, write_text_atomic
 from flowvo.kitti.calib import Calibration, format_calibration
 from flowvo.kitti.poses import write_kitti_poses
 from flowvo.progress import progress

@@ -8,7 +8,7 @@ Rules every writing sub-command follows (through :func:`prepare_output_dir`):
   never be read back as ground truth or overwrite it;
 - an earlier result is never overwritten silently: if any file the command would write exists, it is
   refused unless the user passes ``--force``; even then nothing is removed up front: every file is
-  written under a temporary name and renamed over the old one (:mod:`flowvo.atomic`), folders are swapped
+  written under a temporary name and renamed over the old one (:mod:`flowvo.io.atomic`), folders are swapped
   whole once complete (:func:`replace_folder`), and what the new result lacks is removed last
   (:func:`remove_stale`), so an interrupted or failed run leaves the earlier result intact;
 - one writer at a time: :func:`output_lock` holds ``.flowvo.lock`` in the folder for the whole command
@@ -63,7 +63,7 @@ def run_outputs(sequence: str, steps: bool = False) -> list[str]:
 
 
 def steps_csv_name(sequence: str) -> str:
-    """The file of a windowed run's step records (:mod:`flowvo.steps_csv`)."""
+    """The file of a windowed run's step records (:mod:`flowvo.drive.steps_csv`)."""
     return f"{sequence}_steps.csv"
 
 

@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from flowvo.atomic import atomic_path  # noqa: E402
+from flowvo.io.atomic import atomic_path  # noqa: E402
 
 
 def _save(figure: plt.Figure, path: Path) -> Path:

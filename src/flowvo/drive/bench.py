@@ -17,13 +17,13 @@ import time
 import cv2
 import numpy as np
 
-from flowvo.atomic import write_text_atomic
-from flowvo.drive import RunOptions, make_step, open_drive
+from flowvo.drive.options import RunOptions, make_step, open_drive
+from flowvo.drive.stream import stream_odometry, timing_report
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import write_text_atomic
 from flowvo.methods import METHODS
-from flowvo.reference_system import REFERENCE_SECONDS_PER_FRAME
-from flowvo.stages import STAGES, stage_seconds_text
-from flowvo.stream import stream_odometry, timing_report
+from flowvo.methods.stages import STAGES, stage_seconds_text
+from flowvo.report.reference_system import REFERENCE_SECONDS_PER_FRAME
 
 
 def benchmark(options: RunOptions, methods: list[str], frames: int, repeat: int) -> list[dict]:

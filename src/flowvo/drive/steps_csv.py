@@ -1,4 +1,4 @@
-"""``NAME_steps.csv``: what became of each step of a windowed run (:class:`flowvo.scale_window.StepRecord`),
+"""``NAME_steps.csv``: what became of each step of a windowed run (:class:`flowvo.odometry.scale_window.StepRecord`),
 one row per step in frame order, for a user who weighs the poses (a fusion filter) or wants to see which
 stretches rest on the road; and reading it back.
 
@@ -13,8 +13,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from flowvo.atomic import atomic_open
-from flowvo.scale_window import StepRecord
+from flowvo.io.atomic import atomic_open
+from flowvo.odometry.scale_window import StepRecord
 
 HEADER = "frame,time_s,length_m,length_log_sigma,measured_by"
 

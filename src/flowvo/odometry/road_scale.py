@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulate
+from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px, triangulate
 
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths

@@ -1,4 +1,4 @@
-"""Points tracked over many frames, for the bundle adjustment (:mod:`flowvo.bundle_window`).
+"""Points tracked over many frames, for the bundle adjustment (:mod:`flowvo.odometry.bundle_window`).
 
 Each frame, every live track is followed into the new frame by pyramidal Lucas-Kanade, checked forward and
 backward, and then measured again from the frame it started in, searched from there: a position chained from
@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flowvo.two_view import lucas_kanade, track_points_checked
+from flowvo.odometry.two_view import lucas_kanade, track_points_checked
 
 MAX_TRACKS = 240  # live tracks at most (every frame adds new ones up to this)
 SPACING_PX = 16.0  # at the reference width: a new track starts this far from any live one at least

@@ -1,9 +1,10 @@
 """The bundle stage of ``flowvo-ba``: the last frames' poses and the points they track, refined jointly.
 
-Behind the scale window (:mod:`flowvo.scale_window`), whose motions arrive with their metric lengths, this stage
-keeps the last ``frames`` frames, the points tracked through them (:mod:`flowvo.landmark_tracks`) and a point
+Behind the scale window (:mod:`flowvo.odometry.scale_window`), whose motions arrive with their metric lengths,
+this stage
+keeps the last ``frames`` frames, the points tracked through them (:mod:`flowvo.odometry.landmark_tracks`) and a point
 estimate for every track seen in ``MIN_VIEWS`` frames. Every ``every`` frames it runs a local bundle adjustment
-(:func:`flowvo.bundle_adjustment.adjust_bundle`): the oldest frame held (its pose is final), each step's motion
+(:func:`flowvo.odometry.bundle_adjustment.adjust_bundle`): the oldest frame held (its pose is final), each step's motion
 from the scale window as a prior that keeps its length (the window's own standard deviation of it) and lets its
 rotation and direction follow the points. When a frame leaves the window, the motion to the next one is final:
 each motion comes out ``frames - 1`` frames after the scale window gave it, with the bundle's translation and,
@@ -23,10 +24,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.bundle_adjustment import adjust_bundle
 from flowvo.geometry import invert_se3
+from flowvo.odometry.bundle_adjustment import adjust_bundle
+from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px, triangulate
 from flowvo.optional import import_optional
-from flowvo.two_view import EssentialMotion, translation_parallax_px, triangulate
 
 FRAMES = 10  # frames in the window (the latency it adds is one less)
 EVERY = 1  # frames between solves
@@ -170,7 +171,7 @@ class BundleWindow:
     def _triangulated(self, poses: np.ndarray, frame: np.ndarray, px: np.ndarray, point: np.ndarray,
                       tracks: np.ndarray) -> np.ndarray:
         """World points (len(tracks), 3) of the ``tracks`` (indices into ``point``'s numbering), each from its first
-        and last view in the window (:func:`flowvo.two_view.triangulate`, the midpoint method, with the metric
+        and last view in the window (:func:`flowvo.odometry.two_view.triangulate`, the midpoint method, with the metric
         motion between the two frames); NaNs where the view moved less than ``MIN_PARALLAX_RAD`` beyond the rotation
         or the point lies behind a camera. Observations are in frame order: a track's earliest row is its first view."""
         points = np.full((len(tracks), 3), np.nan)

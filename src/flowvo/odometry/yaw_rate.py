@@ -11,7 +11,7 @@ failed fit. Such a step takes the last yaw rate taken (its whole rotation, at th
 step's rate agrees with the refused one rather than with the last taken, the change was real (it held), and
 that rate is taken from then on. At high frame rates the steps' own scatter sets the bound instead
 (``min_change_deg``). Only below 6 m/s: faster, the fit's yaw is well conditioned and the direction of travel
-is checked instead (:mod:`flowvo.travel_direction`), and a synthetic path may turn faster than a car (the
+is checked instead (:mod:`flowvo.odometry.travel_direction`), and a synthetic path may turn faster than a car (the
 demo's drive, at 13 m/s, straightens out of a 1 g curve by 1.2 degrees a step: checked at that speed it scored
 1.92 against 0.96 %). Rotations are rotation vectors in the camera frame (x right, y down, z forward),
 radians.
@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.travel_direction import MIN_SPEED_MPS as DIRECTION_CHECKED_FROM_MPS
+from flowvo.odometry.travel_direction import MIN_SPEED_MPS as DIRECTION_CHECKED_FROM_MPS
 
 MAX_YAW_ACCELERATION_DEG_S2 = 60.0  # module docstring: 0.6 degrees a step at 10 Hz
 MAX_SPEED_MPS = DIRECTION_CHECKED_FROM_MPS  # checked below the speed from which the direction is (6 m/s)
@@ -61,7 +61,8 @@ class YawRateCheck:
 
     def took(self, rotation: np.ndarray, dt_s: float) -> None:
         """The rotation vector (rad) the step of ``dt_s`` seconds finally took, where a later check fitted it again
-        (:mod:`flowvo.travel_direction`): the rate the next step is checked against. Without it a fit refused for
+        (:mod:`flowvo.odometry.travel_direction`): the rate the next step is checked against. Without it a fit
+        refused for
         its direction at speed left its wrong yaw rate behind, and the next, slower step's good fit was refused
         against it (synthetic replay 08, frame 495: 2.2 degrees of yaw off for the rest of the drive)."""
         self.taken_rate = rotation / dt_s

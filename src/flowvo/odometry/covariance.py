@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from flowvo.geometry import invert_se3, relative_motions, skew
-from flowvo.scale_window import StepRecord
+from flowvo.odometry.scale_window import StepRecord
 
 # Per step (10 Hz), against the truth on the real clips (309 steps of 01, 06 and 07, the default method; the
 # truth's own noise is in them, so they err on the safe side):

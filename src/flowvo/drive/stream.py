@@ -20,8 +20,8 @@ from threadpoolctl import threadpool_limits
 
 from flowvo.errors import FlowvoError
 from flowvo.methods.base import OdometryStep
+from flowvo.methods.stages import STAGES
 from flowvo.progress import progress
-from flowvo.stages import STAGES
 
 _END = object()
 _QUEUE_DEPTH = 4

@@ -14,20 +14,20 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from flowvo.atomic import write_json_atomic
-from flowvo.drive import Drive, RunOptions, make_step, open_drive
+from flowvo.drive.options import Drive, RunOptions, make_step, open_drive
+from flowvo.drive.steps_csv import write_steps_csv
 from flowvo.errors import FlowvoError
-from flowvo.evaluation import evaluate, save_evaluation
+from flowvo.io.atomic import write_json_atomic
+from flowvo.io.outputs import claim_output_dir, run_outputs, staged_outputs, steps_csv_name
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
 from flowvo.methods.base import OdometryStep
-from flowvo.odometry_covariance import records_covariances
-from flowvo.outputs import claim_output_dir, run_outputs, staged_outputs, steps_csv_name
-from flowvo.steps_csv import write_steps_csv
+from flowvo.odometry.covariance import records_covariances
+from flowvo.report.evaluation import evaluate, save_evaluation
 from flowvo.trajectory import Trajectory
 from flowvo.versions import library_versions
 
 if TYPE_CHECKING:
-    from flowvo.stream import StreamResult
+    from flowvo.drive.stream import StreamResult
 
 
 def run(options: RunOptions) -> dict:
@@ -35,9 +35,9 @@ def run(options: RunOptions) -> dict:
 
     Every input is checked (ground truth included) before the output folder is touched; the folder is
     locked while the run writes it, and an earlier result (``force``) is replaced only by the finished new
-    one, whole (see :func:`flowvo.outputs.staged_outputs`).
+    one, whole (see :func:`flowvo.io.outputs.staged_outputs`).
     """
-    from flowvo.stream import stream_odometry
+    from flowvo.drive.stream import stream_odometry
 
     drive = open_drive(options)
     source = drive.source
@@ -71,7 +71,7 @@ def run(options: RunOptions) -> dict:
 def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result: StreamResult,
                    ground_truth: Trajectory | None, out: Path) -> dict:
     """Write poses, timing, MCAP, evaluation and run.json into ``out``; returns the summary."""
-    from flowvo.stream import timing_report
+    from flowvo.drive.stream import timing_report
 
     source = drive.source
     trajectory = Trajectory.from_poses(result.T_world_cam)

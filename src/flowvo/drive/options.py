@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from flowvo.camera import Camera
 from flowvo.camera_options import GivenCamera, drive_camera, given_camera
 from flowvo.errors import FlowvoError
-from flowvo.methods import DEFAULT_METHOD, method
+from flowvo.methods import DEFAULT_METHOD, MethodOptions, method
 from flowvo.methods.base import OdometryStep
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
 from flowvo.sources.base import FrameSource
@@ -113,4 +113,6 @@ def _open_source(options: RunOptions, given: GivenCamera) -> FrameSource:
 
 def make_step(options: RunOptions, drive: Drive) -> OdometryStep:
     """The per-frame odometry step of ``options.method`` for this drive."""
-    return method(options.method).build(options, drive.source, drive.camera)
+    chosen = MethodOptions(options.method, options.model, options.flow_method, options.latency_frames,
+                           options.classical_scale)
+    return method(options.method).build(chosen, drive.source, drive.camera)

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo.atomic import atomic_open, write_json_atomic
 from flowvo.errors import FlowvoError
+from flowvo.io.atomic import atomic_open, write_json_atomic
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics import kitti_odometry as kitti
 from flowvo.metrics.trajectory_errors import ate_rmse_m, per_frame_errors, rpe
@@ -136,7 +136,7 @@ def format_table(metrics: dict) -> str:
 
 def save_evaluation(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
     """Write metrics.json, per_frame_errors.csv and the PNG plots into ``out_dir``; returns the files."""
-    from flowvo import plots
+    from flowvo.report import plots
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,6 +1,6 @@
 """``flowvo report``: one self-contained HTML page (plus PNGs) comparing runs of ``flowvo run``.
 
-Every number is recomputed from the pose files with :func:`flowvo.evaluation.evaluate`, the same code as
+Every number is recomputed from the pose files with :func:`flowvo.report.evaluation.evaluate`, the same code as
 ``flowvo eval``. Published figures of the reference system are shown beside ours and labelled so.
 """
 
@@ -13,16 +13,16 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo import plots
-from flowvo.atomic import strict_json_dumps, write_text_atomic
 from flowvo.errors import FlowvoError
-from flowvo.evaluation import Evaluation, evaluate, format_lengths, pooled_summary
+from flowvo.io.atomic import strict_json_dumps, write_text_atomic
+from flowvo.io.outputs import prepare_output_dir, validate_name
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import KittiSequence
+from flowvo.methods.stages import STAGES, stage_seconds_text
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
-from flowvo.outputs import prepare_output_dir, validate_name
-from flowvo.reference_system import REFERENCE_FIGURES, REFERENCE_LABEL, REFERENCE_SECONDS_PER_FRAME
-from flowvo.stages import STAGES, stage_seconds_text
+from flowvo.report import plots
+from flowvo.report.evaluation import Evaluation, evaluate, format_lengths, pooled_summary
+from flowvo.report.reference_system import REFERENCE_FIGURES, REFERENCE_LABEL, REFERENCE_SECONDS_PER_FRAME
 
 RUN_KEYS = ("label", "sequence", "data", "synthetic", "frames", "poses")
 MIN_FRAMES = 2  # what flowvo run needs and writes

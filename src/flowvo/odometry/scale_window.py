@@ -4,7 +4,7 @@ window of steps, from the measurements of all of them.
 Per step the default method measures, when it can: its length from the road plane and the camera height
 (absolute, a few % noise, heavy tails), the ratio of its length to the previous step's from points seen in three
 frames (relative, about 1 % noise, weighted by its own standard error and its steps' turn: a ratio whose points
-disagree counts less, and so does one through a turn; :mod:`flowvo.scale_propagation`), and where no road has
+disagree counts less, and so does one through a turn; :mod:`flowvo.odometry.scale_propagation`), and where no road has
 been seen for a while the network's distance (absolute, biased on real frames). With ``x_k`` the log of step k's
 length, the measurements are ``x_k = log(road)`` and ``x_k - x_(k-1) = log(ratio)``; a road measured from a key
 frame several steps back (at low speed) measures the log of their summed length. The window solves these by
@@ -37,8 +37,8 @@ from typing import NamedTuple
 import numpy as np
 
 from flowvo.geometry import invert_se3, rotation_angle_between_rad
-from flowvo.speed_prior import SPEED_HORIZON_S
-from flowvo.two_view import se3_next_prev
+from flowvo.odometry.speed_prior import SPEED_HORIZON_S
+from flowvo.odometry.two_view import se3_next_prev
 
 WINDOW_S = 2.0  # the steps solved together: 20 at 10 frames/s (real clips: 15-60 steps measured alike)
 MIN_WINDOW_STEPS = 10

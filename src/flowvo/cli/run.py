@@ -1,0 +1,100 @@
+"""Odometry on one drive: ``flowvo run``."""
+
+from __future__ import annotations
+
+import argparse
+
+from flowvo.cli.arguments import FRAME_COUNT, SUB_PATH_M, force_flag
+from flowvo.cli.drive_options import add_drive_options, run_options
+from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M as DEVKIT_LENGTHS_M
+
+UNSCALED_SHARE = 0.1  # more of a run's moving steps than this without a scale measurement: warn
+
+
+def command(args: argparse.Namespace) -> int:
+    from flowvo.drive.run import run
+
+    options = run_options(args, args.out)
+    options.mcap, options.frame_id, options.child_frame_id = args.mcap, args.frame_id, args.child_frame_id
+    options.force, options.lengths_m = args.force, tuple(sorted(set(args.lengths)))
+    summary = run(options)
+    print(f"{summary['label']} on {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
+    if "estimate" in summary["camera"]:
+        print(_estimate_line(summary["camera"]))
+    print(_camera_line(summary))
+    planes = summary.get("road_planes", {})
+    if planes.get("tilted_median_pitch_deg") is not None:
+        hint, pitch = planes["tilted_median_pitch_deg"], summary["camera"]["camera_pitch_deg"]
+        print(f"warning: {planes['refused_as_tilted']} road planes refused as tilted ({planes['trusted']} trusted), "
+              f"by {hint:+.1f} deg of pitch (median): a camera mounted pitched needs --camera-pitch "
+              f"{pitch + hint:.1f} (docs/camera.md)")
+    print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
+          f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
+    if summary.get("steps"):
+        kinds = summary["scale_window"]["steps_measured_by"]
+        print(f"steps: {args.out}/{summary['steps']}  (measured by " + ", ".join(
+            f"{kind} {count}" for kind, count in sorted(kinds.items(), key=lambda item: -item[1])) + ")")
+        if warning := _unscaled_warning(summary, args.out):
+            print(warning)
+    if "mcap" in summary:
+        print(f"mcap: {args.out}/{summary['mcap']}")
+    if "metrics" in summary:
+        m = summary["metrics"]
+        if m["t_err_percent"] is not None:
+            lengths = "" if args.lengths == list(DEVKIT_LENGTHS_M) else \
+                f" (sub-paths {', '.join(f'{L:g}' for L in sorted(set(args.lengths)))} m, not the devkit's)"
+            print(f"t_err {m['t_err_percent']:.2f} %  r_err {m['r_err_deg_per_m']:.4f} deg/m{lengths}", end="  ")
+        print(f"ATE {m['ate_rmse_m']:.2f} m")
+    return 0
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="odometry on one drive (KITTI sequence, video, ROS bag): poses, timing, evaluation")
+    add_drive_options(p)
+    p.add_argument("--out", required=True, help="output folder")
+    p.add_argument("--scale-from", choices=("height", "gt"), default="height",
+                   help="classical method's metric scale: the camera height, or GT step lengths (labelled)")
+    p.add_argument("--max-frames", type=FRAME_COUNT, help="stop after this many frames")
+    p.add_argument("--lengths", nargs="+", type=SUB_PATH_M, default=list(DEVKIT_LENGTHS_M), metavar="M",
+                   help="evaluation sub-path lengths in metres (default the devkit's 100..800)")
+    p.add_argument("--mcap", action="store_true", help="also write NAME.mcap (nav_msgs/Odometry, /tf, nav_msgs/Path); "
+                                                        "always on for --bag")
+    p.add_argument("--frame-id", default="odom", help="MCAP parent frame id")
+    p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id")
+    force_flag(p, "this drive's earlier result in --out (poses, timing, run.json, eval_NAME/, NAME.mcap)")
+    p.set_defaults(func=command)
+
+
+def _camera_line(summary: dict) -> str:
+    """The run summary's camera in one line."""
+    camera = summary["camera"]
+    distortion = "no distortion" if camera["distortion_model"] == "none" else \
+        f"{camera['distortion_model']} {' '.join(f'{v:g}' for v in camera['distortion'])}"
+    height = f"{camera['camera_height_m']:g} m"
+    if not camera["camera_height_given"]:
+        height += " (KITTI's)" if camera["source"] == "kitti" else \
+            " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
+    pitch = f", pitched {camera['camera_pitch_deg']:g} deg down" if camera["camera_pitch_deg"] else ""
+    return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "
+            f"cy {camera['cy']:.1f}, {distortion}, height {height}{pitch}")
+
+
+def _estimate_line(camera: dict) -> str:
+    """The focal length estimated from the motion, and the flags that give it next time, in one line."""
+    estimate = camera["estimate"]
+    return (f"estimated focal length {estimate['focal_px']:.0f} px (+- {100 * estimate['relative_uncertainty']:.1f} %) "
+            f"from {estimate['pairs_used']} frame pairs in the first {estimate['frames']} frames; next time pass "
+            f"--fx {camera['fx']:.1f} --fy {camera['fy']:.1f} --cx {camera['cx']:.1f} --cy {camera['cy']:.1f}")
+
+
+def _unscaled_warning(summary: dict, out: str) -> str | None:
+    """A warning when more than a tenth of the moving steps rest on no measurement of the scale (the held
+    speed, or nothing: ``flowvo-geometry`` without a road in sight), else None."""
+    window = summary.get("scale_window") or {}
+    kinds = window.get("steps_measured_by", {})
+    unscaled, moving = window.get("unscaled_steps", 0), sum(kinds.values()) - kinds.get("standstill", 0)
+    if not unscaled or unscaled <= UNSCALED_SHARE * moving:
+        return None
+    return (f"warning: {unscaled} of {moving} moving steps had no road, ratio to a measured step or network distance: "
+            f"their lengths are the held speed or zero, not measured ({out}/{summary['steps']}; flowvo, with its "
+            "network, measures where no road is seen)")

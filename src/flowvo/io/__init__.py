@@ -1,0 +1,1 @@
+"""Files in and out: atomic writes, the run's output files, numbers in text files, PyTorch files."""

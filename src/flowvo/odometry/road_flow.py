@@ -1,0 +1,90 @@
+"""The road's flow: where the road grid points of one working frame are in a later one, from the dense DIS flow
+of the road crop, measured through a predicted road homography where there is one.
+
+Pixels: the working frame's (distorted where the camera has a lens); the points given back are undistorted.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from flowvo.camera import Camera, distort_points, undistort_points
+from flowvo.flow.registry import create_estimator
+from flowvo.odometry.road_scale import road_crop, road_grid, road_points_in_view
+from flowvo.odometry.two_view import follow_flow
+
+ROAD_WARP_INTERPOLATION = cv2.INTER_CUBIC  # how the current frame is warped onto the predicted road: bilinear
+# interpolation blurs it where the prediction falls between pixels, and DIS, matching it against the sharp previous
+# frame, measured 1-2 px of road flow 3.5-4.5 % long (bicubic: 2-3 %); real clips over working widths 600-640 px,
+# medians 1.15 / 0.95 / 1.32 -> 1.09 / 0.88 / 1.20 % (25 of the 33 widths better); Lanczos spread clip 06 1.54x
+
+
+class RoadFlow:
+    """The road crop and grid of working frames of ``working_hw`` (pixels) seen by ``camera`` (at the working
+    resolution), and the dense flow (``flow_method``) that moves the grid from one frame to another."""
+
+    def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str) -> None:
+        self.camera, self.K, self.working_hw = camera, camera.intrinsics.K, working_hw
+        self.estimator = create_estimator(flow_method)
+        self.crop = road_crop(working_hw, self.K)
+        self.crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
+        self.grid_px = road_grid(working_hw, self.K)
+        self.grid_undistorted_px = self.undistort(self.grid_px)
+        self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
+        self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
+                                        [0.0, 0.0, 1.0]])
+        rows, columns = np.mgrid[self.crop[0], self.crop[1]]
+        self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
+
+    def undistort(self, points_px: np.ndarray) -> np.ndarray:
+        """Working-frame pixels (N, 2) to ideal pinhole pixels."""
+        return undistort_points(points_px, self.K, self.camera.distortion)
+
+    def measure(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """The road grid points of working frame ``previous`` that stay in view, and where they are in
+        ``current``, each (R, 2), undistorted working pixels (:func:`road_points_in_view`: the nearest road
+        leaves the frame on a long step).
+
+        With a ``prediction`` (a road homography ``previous -> current`` on undistorted working pixels: the
+        default method passes the last step's plane and motion, constant velocity, where that step found the
+        road plane), the current frame is first warped onto the previous frame's road by it, and DIS
+        measures only what the prediction missed: large road motion (fast driving, low frame rates) stays
+        within reach of the flow, points that leave the crop are still seen, and the residual is small and
+        nearly uniform, which DIS measures best. On the real clips the road step lengths against the truth
+        scattered less (inter-quartile range 4.7 against 7.1 %, with dis-medium-fine) than when only road
+        motion over 12 px was predicted. The homography acts on undistorted pixels; with lens
+        distortion the warp goes through the lens."""
+        return road_points_in_view(self.grid_undistorted_px, self._moved(previous, current, prediction),
+                                   self.working_hw)
+
+    def _moved(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
+        """Where every road grid point of ``previous`` is in ``current`` (R, 2), undistorted working pixels
+        (see :meth:`measure`)."""
+        grid = self.grid_px - self.crop_origin
+        previous_crop = np.ascontiguousarray(previous[self.crop])
+        if prediction is None:
+            flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[self.crop]))
+            return self.undistort(follow_flow(grid, flow) + self.crop_origin)
+        height, width = previous_crop.shape
+        if self.camera.distortion.is_none:
+            crop_to_current = prediction @ self._crop_to_frame
+            warped = cv2.warpPerspective(current, crop_to_current, (width, height),
+                                         flags=ROAD_WARP_INTERPOLATION | cv2.WARP_INVERSE_MAP,
+                                         borderMode=cv2.BORDER_REPLICATE)
+            moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped))
+            return _transform(moved, crop_to_current)
+        ideal_in_current = _transform(self._crop_ideal_px, prediction)
+        source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
+        source = source.reshape(height, width, 2)
+        warped = cv2.remap(current, source[..., 0], source[..., 1], ROAD_WARP_INTERPOLATION,
+                           borderMode=cv2.BORDER_REPLICATE)
+        moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped)) + self.crop_origin
+        return _transform(self.undistort(moved), prediction)
+
+
+def _transform(points_px: np.ndarray, homography: np.ndarray) -> np.ndarray:
+    """Points (N, 2) mapped by a 3x3 homography, float32."""
+    mapped = cv2.perspectiveTransform(np.asarray(points_px, np.float64).reshape(-1, 1, 2), homography)
+    return mapped.reshape(-1, 2).astype(np.float32)

@@ -1,0 +1,49 @@
+"""A step's metric length from the road: the road points triangulated into a plane, gated, its normal blended
+over many steps (:class:`flowvo.odometry.road_scale.RoadNormal`), and the camera height over the plane's distance.
+
+Frames: the camera frame of the road key frame (x right, y down, z forward); pixels undistorted working pixels;
+lengths in metres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from flowvo.odometry.road_scale import RoadNormal, RoadPlane, RoadPlaneTally, trusted_road_plane
+from flowvo.odometry.two_view import EssentialMotion
+
+
+class RoadLength:
+    """The road scale of a camera with intrinsics ``K`` (working pixels), ``camera_height_m`` above the road,
+    ``levelling`` the rotation from its frame to the road-levelled one (None: mounted level);
+    ``min_parallax_px``: the road motion beyond the rotation that nine road points in ten must show."""
+
+    def __init__(self, K: np.ndarray, camera_height_m: float, levelling: np.ndarray | None,
+                 min_parallax_px: float) -> None:
+        self.K, self.camera_height_m, self.levelling = K, camera_height_m, levelling
+        self.min_parallax_px = min_parallax_px
+        self.normal = RoadNormal()
+        self.tally = RoadPlaneTally()
+
+    def advance(self, R_next_prev: np.ndarray, dt_s: float) -> None:
+        """Carry the road's normal over a step of ``dt_s`` seconds with rotation ``R_next_prev``."""
+        self.normal.advance(R_next_prev, dt_s)
+
+    def forget(self) -> None:
+        """No rotation was measured: the next plane starts afresh."""
+        self.normal.forget()
+
+    def measure(self, road: tuple[np.ndarray, np.ndarray], key_fit: EssentialMotion | None, measured: bool
+                ) -> tuple[RoadPlane | None, float | None]:
+        """The trusted road plane (its normal blended, :meth:`RoadNormal.smoothed`; ``measured``: the flow was
+        within reach, so the blend is carried on) of the road correspondences ``road`` (key frame, current frame)
+        under the key frame's motion ``key_fit``, and the metres travelled since the key frame; (None, None)
+        without a fit or a trusted plane."""
+        if key_fit is None:
+            return None, None
+        plane = trusted_road_plane(road[0], road[1], self.K, key_fit, min_parallax_px=self.min_parallax_px,
+                                   levelling=self.levelling, tally=self.tally)
+        if plane is None:
+            return None, None
+        plane = self.normal.smoothed(plane, key_fit.R, keep=measured)
+        return plane, self.camera_height_m / plane.distance
