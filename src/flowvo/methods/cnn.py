@@ -8,7 +8,7 @@ from collections import deque
 import numpy as np
 import torch
 
-from flowvo.camera import Camera
+from flowvo.camera import KITTI_CAMERA_HEIGHT_M, Camera
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import create_estimator
 from flowvo.geometry import chain_planar, chain_se3, se3_from_targets
@@ -45,11 +45,15 @@ class CnnStep(NoWindow, WorkingFrames):
 
     @torch.no_grad()
     def motion(self, times_s: tuple[float, float], previous: np.ndarray, flow: np.ndarray) -> np.ndarray:
-        """``T_prev_cur`` from the network's distance and heading change (or 6-DoF motion)."""
+        """``T_prev_cur`` from the network's distance and heading change (or 6-DoF motion), metres for the camera's
+        height."""
         if not self.past_flows:  # the first pair stands in for the missing earlier ones, as in training
             self.past_flows.extend([flow] * (self.network.stack - 1))
         self.past_flows.append(flow)
-        return self._motion_of(self.network.predict(np.concatenate(list(self.past_flows))[None]))
+        motion = self._motion_of(self.network.predict(np.concatenate(list(self.past_flows))[None]))
+        motion[:3, 3] *= self.camera.camera_height_m / KITTI_CAMERA_HEIGHT_M  # the network learned a camera 1.65 m
+        # high: the same flow seen from another height is a motion in proportion to it
+        return motion
 
     def _motion_of(self, targets: np.ndarray) -> np.ndarray:
         """``T_prev_cur`` of the network's outputs (1, D)."""

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from flowvo.camera import Camera
+from flowvo.camera import KITTI_CAMERA_HEIGHT_M, Camera
 from flowvo.errors import FlowvoError
 from flowvo.geometry import invert_se3
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
@@ -164,13 +164,18 @@ class FlowGeometryStep(WorkingFrames):
         car_axes = np.eye(3) if levelling is None else levelling.T  # columns: the car's right, down and forward
         # axes in the camera frame (a pitched camera's are turned by its pitch)
         self.checks: MotionChecks[GeometryFrame] = MotionChecks(self.K, car_axes, self.threshold_px)
-        self.road_length = RoadLength(self.K, self.camera.camera_height_m, levelling, MIN_ROAD_PARALLAX_PX * scale)
-        self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale,
-                                                                  self.camera.camera_height_m)
+        # Lengths inside the method are in units of KITTI's camera height (metres for a camera 1.65 m high): every
+        # threshold in metres or m/s (the speed prior's limits, the gates by speed, the network's distance) then
+        # acts alike at any height, and each length given out is exactly proportional to the height
+        self.metres_per_unit = self.camera.camera_height_m / KITTI_CAMERA_HEIGHT_M
+        self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, levelling, MIN_ROAD_PARALLAX_PX * scale)
+        self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M)
+        self.road_too_fast_steps = 0  # road lengths the window was not given: faster than a car could have driven
         self.dis_reach_px = DIS_REACH_PX * scale
         self.min_parallax_px = MIN_PARALLAX_PX * scale
         self.last_motion = np.eye(4)
-        # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios
+        # the last moving step's motion and its undistorted tracks (motion_prev, motion_next): three-view ratios; all
+        # in the method's units
         self._last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None = None
         self._step_scale: StepScale | None = None  # the last step, for the window stage
         self._previous: GeometryFrame | None = None
@@ -232,7 +237,7 @@ class FlowGeometryStep(WorkingFrames):
         # a car too fast to have stopped, with only distant scenery in view, is degenerate too
         fit = None if still else self._essential(flow.motion_prev, flow.motion_next)
         if fit is None:
-            return self._keep_last_motion(dt_s)
+            return self._in_metres(self._keep_last_motion(dt_s))
         road_key_fit = None if span.from_previous else self._essential(flow.key_prev, flow.key_next)
         rotation_key_fit = None if flow.rotation_key_prev is None else road_key_fit \
             if flow.rotation_key_prev is flow.key_prev else self._essential(flow.rotation_key_prev,
@@ -253,7 +258,15 @@ class FlowGeometryStep(WorkingFrames):
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
         if self.window is not None:
             self._record_step(times_s, span, fit, step_m, road_m, network_m, last_step, flow)
-        return self.last_motion
+        return self._in_metres(self.last_motion)
+
+    def _in_metres(self, motion: np.ndarray) -> np.ndarray:
+        """A motion in the method's units (KITTI camera heights) with its translation in metres."""
+        if self.metres_per_unit == 1.0:
+            return motion
+        scaled = motion.copy()
+        scaled[:3, 3] *= self.metres_per_unit
+        return scaled
 
     def _looks_still(self, flow: GeometryFlow, road_step_px: float) -> bool:
         """Whether the road (``road_step_px``: its median motion per step, working pixels) and the tracked
@@ -296,6 +309,7 @@ class FlowGeometryStep(WorkingFrames):
         frame where a car could have driven them, the network's, and the ratio to the last step's length."""
         time_s = times_s[1]
         plausible = road_m is not None and road_m <= self.speed.max_speed_at(time_s) * (time_s - span.start_s)
+        self.road_too_fast_steps += road_m is not None and not plausible
         ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
         self._step_scale = StepScale(fit.R, fit.t_dir, step_m, times_s[1] - times_s[0], road_m if plausible else None,
                                      network_m, *((None, 0.0) if ratio is None else ratio), road_steps=span.steps)
@@ -341,14 +355,18 @@ class FlowGeometryStep(WorkingFrames):
         once; ``flowvo-ba``: then through the bundle stage, ``bundle.latency_frames`` later)."""
         if self.window is None:
             return [(time_s, motion)]
-        return self._bundled(self.window.push(time_s, measured))
+        return self._all_in_metres(self._bundled(self.window.push(time_s, measured)))
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
         """The motions still in the window (and the bundle stage) at the end of the drive."""
         if self.window is None:
             return []
         final = self._bundled(self.window.flush())
-        return final if self.bundle is None else final + self.bundle.flush()
+        return self._all_in_metres(final if self.bundle is None else final + self.bundle.flush())
+
+    def _all_in_metres(self, motions: list[tuple[float, np.ndarray]]) -> list[tuple[float, np.ndarray]]:
+        """Final motions (time, ``T_prev_cur``) in the method's units with their translations in metres."""
+        return [(time_s, self._in_metres(motion)) for time_s, motion in motions]
 
     def _bundled(self, final: list[tuple[float, np.ndarray]]) -> list[tuple[float, np.ndarray]]:
         """The scale window's ``final`` motions through the bundle stage, each step's length sigma from the
@@ -365,8 +383,12 @@ class FlowGeometryStep(WorkingFrames):
         return bundled
 
     def step_records(self) -> list[StepRecord] | None:
-        """What became of each final step so far (the window's records; None per pair)."""
-        return None if self.window is None else self.window.records
+        """What became of each final step so far (the window's records, lengths in metres; None per pair)."""
+        if self.window is None:
+            return None
+        if self.metres_per_unit == 1.0:
+            return self.window.records
+        return [record._replace(length_m=record.length_m * self.metres_per_unit) for record in self.window.records]
 
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
@@ -375,10 +397,14 @@ class FlowGeometryStep(WorkingFrames):
         fit's (:mod:`flowvo.odometry.yaw_rate`), how many steps' rotations were measured from an earlier key frame
         (:mod:`flowvo.odometry.rotation_key`), the window's latency (frames: how late each motion is final), how many
         steps each kind of measurement reached, the median standard deviation of a step's log length and how
-        many moving steps no measurement of the scale reached (:class:`StepRecord`)."""
+        many moving steps no measurement of the scale reached (:class:`StepRecord`), and how many measured speeds
+        were refused as faster than a car could have driven (``speed_limit``: the limit is 45 m/s for a camera
+        1.65 m high, in proportion to the height, and lower soon after a standstill)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_length.tally.record()
         kept.update(self.checks.summary())
+        kept["speed_limit"] = {"max_speed_mps": self.speed.max_speed_mps * self.metres_per_unit,
+                               "refused_measurements": self.speed.implausible_measurements + self.road_too_fast_steps}
         if self.window is not None:
             records = self.window.records
             sigmas = [record.log_sigma for record in records if record.log_sigma is not None]

@@ -80,6 +80,7 @@ class SpeedPrior:
         self._intervals_s: deque[float] = deque(maxlen=15)
         self._stopped_s: float | None = None  # the last standstill seen
         self._speed: tuple[float, float] | None = None  # the last filtered speed: (time s, m/s)
+        self.implausible_measurements = 0  # speeds refused as faster than max_speed_at allows
 
     def max_speed_at(self, time_s: float) -> float:
         """The highest plausible speed (m/s) at ``time_s``: ``max_speed_mps``, or less soon after a
@@ -113,6 +114,7 @@ class SpeedPrior:
     def _filtered(self, time_s: float, speed_mps: float | None) -> float | None:
         """:meth:`update`'s filtered speed, before it is remembered for :meth:`could_stand_at`."""
         plausible = speed_mps is not None and 0.0 <= speed_mps <= self.max_speed_at(time_s)
+        self.implausible_measurements += speed_mps is not None and not plausible
         gap = self._last_time_s is not None and time_s - self._last_time_s > self.horizon_s
         if self._last_time_s is not None and not gap:
             self._fit_window(time_s - self._last_time_s)
