@@ -71,8 +71,9 @@ def test_a_still_road_and_scene_is_a_standstill():
 
 def test_a_still_view_at_speed_keeps_the_last_motion_until_the_car_could_have_braked():
     """12 m/s on a road, then images that stand still (past a crest only distant scenery is in view): the
-    car keeps its motion, and stands still once 1 g of braking could have stopped it."""
-    step = FlowGeometryStep(CAMERA, HW)
+    car keeps its motion, and stands still once 1 g of braking could have stopped it (a camera at KITTI's height:
+    the method's limits act in camera heights)."""
+    step = FlowGeometryStep(Camera(CAMERA.intrinsics, height_m=1.65), HW)
     moving = step.motion((0.0, 0.1), None, step_flow(step, 1.2))
     still = step_flow(step, 0.0, 0.0, False)
     np.testing.assert_array_equal(step.motion((0.1, 0.2), None, still), moving)
@@ -226,10 +227,11 @@ def test_the_window_measures_each_step_against_the_last_through_the_continued_tr
     frame_c = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, b, c, rows, c[rows])
     road_ab, road_bc = step_flow(step, 0.8, 0.01), step_flow(step, 1.1, 0.005)
     step.motion((0.0, 0.1), None, GeometryFlow(a, b, road_ab.road_prev, road_ab.road_next, frame_b))
-    assert step._step_scale.ratio is None and step._step_scale.road_m == pytest.approx(0.8, rel=1e-4)
+    unit_m = step.metres_per_unit  # the window measures in KITTI camera heights
+    assert step._step_scale.ratio is None and step._step_scale.road_m * unit_m == pytest.approx(0.8, rel=1e-4)
     step.motion((0.1, 0.2), frame_b, GeometryFlow(b, c, road_bc.road_prev, road_bc.road_next, frame_c))
     assert step._step_scale.ratio == pytest.approx(1.1 / 0.8, rel=1e-6)
-    assert step._step_scale.road_m == pytest.approx(1.1, rel=1e-4)
+    assert step._step_scale.road_m * unit_m == pytest.approx(1.1, rel=1e-4)
 
 
 def test_network_fallback_policy_counts_only_after_its_horizon():

@@ -15,8 +15,8 @@ from flowvo.odometry.scale_window import (
     carried_prior,
     log_length_sigmas,
     robust_log_lengths,
-    scipy_log_lengths,
 )
+from flowvo.odometry.scale_window_scipy import scipy_log_lengths
 from flowvo.odometry.two_view import EssentialMotion, se3_next_prev
 
 K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])
@@ -363,3 +363,33 @@ def test_a_turning_steps_ratio_counts_less():
         return float(np.abs([np.linalg.norm(m[:3, 3]) - 1.0 for _, m in run_window(biased)]).max())
 
     assert deviation(np.radians(3.4)) < 0.5 * deviation(0.0)
+
+
+def test_a_drive_that_starts_unmeasured_holds_its_steps_until_the_road_measures_them():
+    """Steps of 1.2 m whose ratios are known but that nothing measures for 1 s (a fast start before the first
+    trusted road; the per-pair estimate has no speed yet: 0 m): nothing is final until the road's first length,
+    then every held step gets 1.2 m through the ratios, labelled by what measured it."""
+    R, t, _ = step(0.0, 1.0)
+    window = ScaleWindow(latency_frames=2)
+    emitted = []
+    for k in range(1, 16):
+        road = 1.2 if k >= 11 else None
+        emitted += window.push(k * 0.1, StepScale(R, t, 0.0, 0.1, road_m=road, ratio=1.0 if k > 1 else None))
+        if k < 11:
+            assert not emitted  # held: none of them is measured yet
+    emitted += window.flush()
+    lengths = [np.linalg.norm(motion[:3, 3]) for _, motion in emitted]
+    np.testing.assert_allclose(lengths, 1.2, rtol=1e-6)
+    assert [record.measured_by for record in window.records[:2]] == ["none", "ratio"]
+
+
+def test_steps_nothing_ever_measures_are_given_out_after_the_hold_labelled_unmeasured():
+    """Steps with ratios but no road, network or speed for 5 s: held at most 3 s, then given out with the
+    per-pair length (0 m) and labelled "none", never as measured by their ratios."""
+    R, t, _ = step(0.0, 1.0)
+    window = ScaleWindow(latency_frames=2)
+    emitted = [window.push(k * 0.1, StepScale(R, t, 0.0, 0.1, ratio=1.0)) for k in range(1, 51)]
+    first_final = next(k for k, final in enumerate(emitted, start=1) if final)
+    assert first_final == 31  # the first pending step ended at 0.1 s, held until 3.1 s
+    assert {record.measured_by for record in window.records} == {"none"}
+    assert all(record.length_m == 0.0 and record.log_sigma is None for record in window.records)

@@ -36,7 +36,7 @@ from flowvo.odometry.motion_checks import MotionChecks
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
-from flowvo.odometry.road_scale import NetworkFallbackPolicy, road_flow_within_reach, road_room
+from flowvo.odometry.road_scale import NetworkFallbackPolicy, RoadPlane, road_flow_within_reach, road_room
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
@@ -179,6 +179,8 @@ class FlowGeometryStep(WorkingFrames):
         self._last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None = None
         self._step_scale: StepScale | None = None  # the last step, for the window stage
         self._previous: GeometryFrame | None = None
+        # read only, for live views (flowvo.api.rerun): (time_s, flow, fit, trusted road plane) of the last step
+        self.last_view: tuple[float, GeometryFlow, EssentialMotion | None, RoadPlane | None] | None = None
 
     def prepare(self, image: np.ndarray) -> GeometryFrame:
         """The working frame, its textured points and the tracks from the previous frame (tracking here
@@ -225,6 +227,7 @@ class FlowGeometryStep(WorkingFrames):
         essential fit and its checks, the road plane and the next step's road key frame, the network where no
         road was seen for a while, the speed prior, and what the window needs of the step."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
+        self.last_view = (time_s, flow, None, None)
         self._keep_landmarks(times_s[0], previous, time_s, flow.current)
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         span = self.road_key.begin(previous, times_s[0], flow.key_prev is None)
@@ -248,7 +251,11 @@ class FlowGeometryStep(WorkingFrames):
         key_fit = fit if span.from_previous else road_key_fit
         self.road_length.advance(fit.R, dt_s)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
+        self.last_view = (time_s, flow, fit, plane)
         self.road_key.end(span, time_s, plane, road_moved_px, (key_fit, fit), road_m, self.speed.last_speed_mps)
+        if road_m is not None and road_m > self.speed.max_speed_at(time_s) * (time_s - span.start_s):
+            road_m = None  # faster than a car could have driven (a wrong plane): unmeasured, the network may step in
+            self.road_too_fast_steps += 1
         step_m = None if road_m is None else road_m * dt_s / (time_s - span.start_s)  # per pair: this step's
         # share of the road since the key frame, at the speed it gives
         network_m = self._network_where_no_road(time_s, step_m is not None, previous, flow.current)
@@ -306,13 +313,10 @@ class FlowGeometryStep(WorkingFrames):
                      step_m: float, road_m: float | None, network_m: float | None,
                      last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None, flow: GeometryFlow) -> None:
         """What the window needs of the step (:class:`StepScale`): its motion, the road's metres since the key
-        frame where a car could have driven them, the network's, and the ratio to the last step's length."""
-        time_s = times_s[1]
-        plausible = road_m is not None and road_m <= self.speed.max_speed_at(time_s) * (time_s - span.start_s)
-        self.road_too_fast_steps += road_m is not None and not plausible
+        frame, the network's, and the ratio to the last step's length."""
         ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
-        self._step_scale = StepScale(fit.R, fit.t_dir, step_m, times_s[1] - times_s[0], road_m if plausible else None,
-                                     network_m, *((None, 0.0) if ratio is None else ratio), road_steps=span.steps)
+        self._step_scale = StepScale(fit.R, fit.t_dir, step_m, times_s[1] - times_s[0], road_m, network_m,
+                                     *((None, 0.0) if ratio is None else ratio), road_steps=span.steps)
         self._last_step = fit, flow.motion_prev, flow.motion_next
 
     def _keep_landmarks(self, previous_s: float, previous: GeometryFrame, time_s: float,

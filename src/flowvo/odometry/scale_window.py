@@ -12,8 +12,10 @@ robust least squares (Huber, then Cauchy), so the road's scale is averaged over 
 carried through stretches without road, while a wrong road or ratio is down-weighted.
 
 Each step's length is final ``latency_frames`` steps after it arrives: it then has measurements on both
-sides. A step that leaves the window is marginalised, not forgotten: what its road, network and prior
-said of its length, carried through its link to the next step, becomes a prior on that step (the
+sides. Until something measures the scale (a drive that starts fast, before its first trusted road), the steps
+are held up to ``MAX_UNMEASURED_HOLD_S``, so that the first measurement reaches them through their ratios.
+A step that leaves the window is marginalised, not forgotten: what its road, network and prior said of its
+length, carried through its link to the next step, becomes a prior on that step (the
 forward message of the chain, with the robust weights of the last solve). So a road measured before a long
 stretch without one still sets the scale, less surely with every link; the per-pair estimate's held speed
 keeps only a weak hold. A standstill ends the window and its prior (the next motion starts a new one); a time gap
@@ -63,6 +65,9 @@ MAX_CAUCHY_ITERATIONS = 50
 UNDETERMINED_WEIGHT = 1e-9  # 1/log^2: holds a step no measurement reaches at 0 (not used: it keeps its pair length)
 UNSCALED_LOG_SIGMA = 0.5  # log: a moving step known less surely than this has only the held speed behind it
 # (the network's distance alone: 0.4)
+MAX_UNMEASURED_HOLD_S = 3.0  # a window that no road, network or carried prior has measured yet (a drive that starts
+# fast, before its first trusted road) holds its steps this long for one, so that they get lengths through their
+# ratios instead of the held speed (none yet: 0 m)
 CONVERGED_LOG = 1e-4  # Cauchy stops once no log length moves more (0.01 % of a step: far below any noise;
 # 1e-6 took 40 % more iterations for the same clip results to four digits)
 
@@ -99,8 +104,8 @@ class _WindowProblem:
     def __init__(self, links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]], count: int,
                  sums: list[tuple[int, int, float, float]]) -> None:
         self.count = count
-        self.link_k, self.link_value, self.link_sigma = _columns(links)
-        self.absolute_k, self.absolute_value, self.absolute_sigma = _columns(absolutes)
+        self.link_k, self.link_value, self.link_sigma = measurement_columns(links)
+        self.absolute_k, self.absolute_value, self.absolute_sigma = measurement_columns(absolutes)
         steps = np.arange(count)
         self.spans = np.array([(steps >= first) & (steps <= last) for first, last, _, _ in sums]).reshape(len(sums),
                                                                                                          count)
@@ -210,44 +215,6 @@ def _sigmas(problem: _WindowProblem, x: np.ndarray, threshold: float = HUBER_THR
     return np.sqrt(np.diag(np.linalg.inv(normal)))
 
 
-def scipy_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tuple[int, float, float]],
-                      count: int, threshold: float = HUBER_THRESHOLD,
-                      sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
-    """The same robust fit as :func:`robust_log_lengths` (same measurements, Huber then Cauchy of scale
-    ``threshold`` sigmas) by SciPy's ``least_squares`` (trust-region reflective, analytic Jacobian): the
-    well-kept solver the window's own iterations are measured against (``ScaleWindow(solver="scipy")``)."""
-    from scipy.optimize import least_squares
-
-    link_k, link_value, link_sigma = _columns(links)
-    absolute_k, absolute_value, absolute_sigma = _columns(absolutes)
-    spans = [np.arange(first, last + 1) for first, last, _, _ in sums]
-    rows = len(link_k) + len(absolute_k) + len(spans) + count
-    jacobian = np.zeros((rows, count))
-    jacobian[np.arange(len(link_k)), link_k] = 1.0 / link_sigma
-    jacobian[np.arange(len(link_k)), link_k - 1] = -1.0 / link_sigma
-    jacobian[len(link_k) + np.arange(len(absolute_k)), absolute_k] = 1.0 / absolute_sigma
-    jacobian[rows - count:] = np.sqrt(UNDETERMINED_WEIGHT) * np.eye(count)
-    first_sum = len(link_k) + len(absolute_k)
-
-    def residuals(x: np.ndarray) -> np.ndarray:
-        summed = [(np.log(np.exp(x[span]).sum()) - value) / sigma
-                  for span, (_, _, value, sigma) in zip(spans, sums, strict=True)]
-        return np.concatenate([(x[link_k] - x[link_k - 1] - link_value) / link_sigma,
-                               (x[absolute_k] - absolute_value) / absolute_sigma, summed,
-                               np.sqrt(UNDETERMINED_WEIGHT) * x])
-
-    def derivatives(x: np.ndarray) -> np.ndarray:
-        for row, (span, (_, _, _, sigma)) in enumerate(zip(spans, sums, strict=True)):
-            lengths = np.exp(x[span])
-            jacobian[first_sum + row, span] = lengths / lengths.sum() / sigma
-        return jacobian
-
-    x = np.zeros(count)
-    for loss in ("huber", "cauchy"):
-        x = least_squares(residuals, x, derivatives, loss=loss, f_scale=threshold).x
-    return x
-
-
 def cauchy_weight(normalised_residual: np.ndarray | float, threshold: float = HUBER_THRESHOLD) -> np.ndarray:
     """The weight a residual of ``normalised_residual`` sigmas keeps under the Cauchy loss of scale
     ``threshold`` sigmas (1 at zero, 1/2 at the threshold)."""
@@ -267,7 +234,7 @@ def carried_prior(measured: list[tuple[float, float]], link: tuple[float, float]
     return mean + link[0], float(np.sqrt(1.0 / information + link[1] ** 2))
 
 
-def _columns(measurements: list[tuple[int, float, float]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def measurement_columns(measurements: list[tuple[int, float, float]]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(k, value, sigma) rows as three arrays: steps (int), values, sigmas."""
     if not measurements:
         return np.zeros(0, np.int64), np.zeros(0), np.ones(0)
@@ -292,6 +259,7 @@ class ScaleWindow:
         self._pending = 0
         self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
         # steps that left it
+        self._measured = False  # whether a road, network distance or prior has measured a step since the window began
         self.records: list[StepRecord] = []  # every final step so far, in order
 
     def push(self, time_s: float, step: StepScale | None) -> list[tuple[float, np.ndarray]]:
@@ -303,15 +271,20 @@ class ScaleWindow:
             return emitted + [(time_s, np.eye(4))]
         self._steps.append((time_s, step))
         self._pending += 1
+        self._measured = self._measured or self._prior is not None or _usable(step.road_m) or _usable(step.network_m)
         if self._pending <= self.latency_frames:
             return []
-        return self._emit(1)
+        first_pending_s = self._steps[len(self._steps) - self._pending][0]
+        if not self._measured and time_s - first_pending_s < MAX_UNMEASURED_HOLD_S:
+            return []  # held until something measures the scale (see MAX_UNMEASURED_HOLD_S)
+        return self._emit(self._pending - self.latency_frames)
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
         """Every pending motion, final now; the window starts anew."""
         emitted = self._emit(self._pending)
         self._steps.clear()
         self._prior = None
+        self._measured = False
         return emitted
 
     def _emit(self, count: int) -> list[tuple[float, np.ndarray]]:
@@ -319,8 +292,10 @@ class ScaleWindow:
             return []
         links, absolutes, sums = self._measurements()
         problem = _WindowProblem(links, absolutes, len(self._steps), sums)  # one per solve, sigmas included
+        if self.solver == "scipy":
+            from flowvo.odometry.scale_window_scipy import scipy_log_lengths
         log_lengths = _robust_solution(problem) if self.solver == "cholesky" else \
-            scipy_log_lengths(links, absolutes, len(self._steps), sums=sums)
+            scipy_log_lengths(links, absolutes, len(self._steps), sums=sums)  # the ablation's solver
         measured = [k for k, _, _ in absolutes] + [last for _, last, _, _ in sums]
         anchored = self._anchored(links, measured)
         lengths = np.where(anchored, np.exp(log_lengths), [step.pair_m for _, step in self._steps])
@@ -330,7 +305,8 @@ class ScaleWindow:
                                                                 self._steps[k][1].t_dir * lengths[k])))
                    for k in range(first, first + count)]
         self.records += [StepRecord(self._steps[k][0], float(lengths[k]), float(sigmas[k]) if anchored[k] else None,
-                                    _measured_by(self._steps[k][1], self.ratios)) for k in range(first, first + count)]
+                                    _measured_by(self._steps[k][1], self.ratios) if anchored[k] else "none")
+                         for k in range(first, first + count)]
         self._pending -= count
         intervals = [step.dt_s for _, step in self._steps]
         keep = max(MIN_WINDOW_STEPS, int(round(self.window_s / float(np.median(intervals)))))
