@@ -16,8 +16,9 @@ METHODS = {"flowvo": [], "flowvo-geometry": [], "flowvo-pair": [], "flowvo-ba": 
 
 
 def main(out: Path, clips: Path) -> None:
-    print("| method | clip 01 (KITTI metric, 100 m) | clip 06 (10-50 m) | clip 07 (10-50 m) | frames/s (clip 07) |")
-    print("| --- | --- | --- | --- | --- |")
+    print("| method | 03 (KITTI metric, 100 and 200 m) | clip 01 (KITTI metric, 100 m) | clip 06 (10-50 m) | clip 07 "
+          "(10-50 m) | frames/s (clip 07) |")
+    print("| --- | --- | --- | --- | --- | --- |")
     for method, extra in METHODS.items():
         cells = [run_cell(clips, clip, out / method / clip, extra or ["--method", method]) for clip in CLIPS]
         fps = json.loads((out / method / "07" / "timing.json").read_text())["frames_per_second"]

@@ -1,0 +1,116 @@
+"""A step's metric length from the road (flowvo.odometry.road_length.RoadLength): the road plane triangulated from
+exact road correspondences (points on a plane projected through a pinhole K), its gates and tally, and the metres
+the camera height gives."""
+
+import numpy as np
+import pytest
+
+from flowvo.camera import pitch_rotation
+from flowvo.geometry import so3_exp
+from flowvo.odometry.road_length import RoadLength
+from flowvo.odometry.two_view import EssentialMotion
+
+K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])
+HEIGHT_M = 1.5
+MIN_PARALLAX_PX = 1.0
+xs, zs = np.meshgrid(np.linspace(-3.0, 3.0, 9), np.linspace(6.0, 25.0, 12))
+ROAD_XZ = np.c_[xs.ravel(), zs.ravel()]  # 108 road points: across (x) and ahead (z), metres
+
+
+def project(points: np.ndarray) -> np.ndarray:
+    pixels = points @ K.T
+    return pixels[:, :2] / pixels[:, 2:]
+
+
+def on_plane(normal: np.ndarray, distance_m: float) -> np.ndarray:
+    """The road points (N, 3) moved along y onto the plane ``normal . X = distance_m`` (camera frame)."""
+    y = (distance_m - normal[0] * ROAD_XZ[:, 0] - normal[2] * ROAD_XZ[:, 1]) / normal[1]
+    return np.c_[ROAD_XZ[:, 0], y, ROAD_XZ[:, 1]]
+
+
+def seen(road: np.ndarray, length_m: float, yaw_rad: float = 0.01
+         ) -> tuple[tuple[np.ndarray, np.ndarray], EssentialMotion]:
+    """The road's pixels before and after a step of ``length_m`` forward turning ``yaw_rad``, and the step's
+    motion up to scale (unit direction)."""
+    R = so3_exp(np.array([0.0, yaw_rad, 0.0]))
+    t_dir = -R @ np.array([0.0, 0.0, 1.0])
+    return (project(road), project(road @ R.T + t_dir * length_m)), EssentialMotion(R, t_dir, np.ones(1, bool))
+
+
+def road_length(levelling: np.ndarray | None = None) -> RoadLength:
+    return RoadLength(K, HEIGHT_M, levelling, MIN_PARALLAX_PX)
+
+
+@pytest.mark.parametrize("length_m", [0.3, 1.2])
+def test_a_level_road_at_the_camera_height_gives_the_exact_metres(length_m):
+    road, motion = seen(on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M), length_m)
+    plane, road_m = road_length().measure(road, motion, measured=True)
+    assert road_m == pytest.approx(length_m, rel=1e-9)
+    assert plane.distance == pytest.approx(HEIGHT_M / length_m, rel=1e-9)  # in units of the step
+    np.testing.assert_allclose(plane.normal, [0.0, 1.0, 0.0], atol=1e-9)
+
+
+def test_a_road_plane_tilted_beyond_4_degrees_is_refused_and_tallied_with_its_pitch():
+    pitch = np.radians(6.0)
+    road, motion = seen(on_plane(np.array([0.0, np.cos(pitch), np.sin(pitch)]), HEIGHT_M), 1.0)
+    stage = road_length()
+    assert stage.measure(road, motion, measured=True) == (None, None)
+    assert stage.tally.trusted == 0
+    assert stage.tally.tilted_pitches_deg == [pytest.approx(6.0, abs=1e-6)]
+
+
+def test_a_road_plane_within_4_degrees_is_trusted_and_tallied():
+    pitch = np.radians(3.0)
+    road, motion = seen(on_plane(np.array([0.0, np.cos(pitch), np.sin(pitch)]), HEIGHT_M), 1.0)
+    stage = road_length()
+    plane, road_m = stage.measure(road, motion, measured=True)
+    assert road_m == pytest.approx(1.0, rel=1e-9)  # the height is measured along the plane's own normal
+    assert plane.tilt_rad == pytest.approx(pitch, rel=1e-6)
+    assert stage.tally.record() == {"trusted": 1, "refused_as_tilted": 0, "tilted_median_pitch_deg": None}
+
+
+def test_without_a_fit_there_is_no_plane_and_no_length():
+    road, _ = seen(on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M), 1.0)
+    stage = road_length()
+    assert stage.measure(road, None, measured=True) == (None, None)
+    assert stage.tally.record()["trusted"] == 0
+
+
+def test_a_road_that_moved_less_than_the_parallax_gate_gives_no_length():
+    """A 2 cm step moves nine in ten road points less than 1 px beyond the rotation: no depth to triangulate."""
+    road, motion = seen(on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M), 0.02)
+    assert road_length().measure(road, motion, measured=True) == (None, None)
+
+
+def test_too_few_road_points_give_no_length():
+    (before, after), motion = seen(on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M), 1.0)
+    assert road_length().measure((before[:19], after[:19]), motion, measured=True) == (None, None)
+
+
+def test_a_pitched_camera_with_its_levelling_measures_the_road_under_it_exactly():
+    """A camera pitched 8 degrees down: its road plane (beyond the 4-degree gate in its own frame) is found
+    about the road's normal and comes back in the camera's frame, with the exact metres."""
+    levelling = pitch_rotation(8.0)  # R_level_cam
+    road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ levelling  # level-frame points, camera frame
+    road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
+    assert road_length().measure(road, motion, measured=True) == (None, None)  # taken for level: refused
+    plane, road_m = road_length(levelling).measure(road, motion, measured=True)
+    assert road_m == pytest.approx(0.8, rel=1e-9)
+    np.testing.assert_allclose(plane.normal, levelling.T @ np.array([0.0, 1.0, 0.0]), atol=1e-9)
+
+
+def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measured_flow():
+    """A level road, then a road pitched 2 degrees measured poorly (``measured=False``): that plane takes the
+    carried normal's blend but leaves it as it was, so the next level road comes back exactly level."""
+    stage = road_length()
+    level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
+    stage.measure(*seen(level, 1.0), measured=True)
+    stage.advance(np.eye(3), 0.1)
+    kept = stage.normal.normal.copy()
+    pitch = np.radians(2.0)
+    road, motion = seen(on_plane(np.array([0.0, np.cos(pitch), np.sin(pitch)]), HEIGHT_M), 1.0)
+    poorly, _ = stage.measure(road, motion, measured=False)
+    assert 0.0 < poorly.tilt_rad < pitch  # blended with the carried normal
+    np.testing.assert_array_equal(stage.normal.normal, kept)
+    stage.forget()
+    assert stage.normal.normal is None
