@@ -56,7 +56,7 @@ def test_a_road_plane_tilted_beyond_4_degrees_is_refused_and_tallied_with_its_pi
     stage = road_length()
     assert stage.measure(road, motion, measured=True) == (None, None)
     assert stage.tally.trusted == 0
-    assert stage.tally.tilted_pitches_deg == [pytest.approx(6.0, abs=1e-6)]
+    assert stage.tally.refused_as_tilted == 1 and stage.tally.pitches_deg == [pytest.approx(6.0, abs=1e-6)]
 
 
 def test_a_road_plane_within_4_degrees_is_trusted_and_tallied():
@@ -66,7 +66,8 @@ def test_a_road_plane_within_4_degrees_is_trusted_and_tallied():
     plane, road_m = stage.measure(road, motion, measured=True)
     assert road_m == pytest.approx(1.0, rel=1e-9)  # the height is measured along the plane's own normal
     assert plane.tilt_rad == pytest.approx(pitch, rel=1e-6)
-    assert stage.tally.record() == {"trusted": 1, "refused_as_tilted": 0, "tilted_median_pitch_deg": None}
+    assert stage.tally.record() == {"trusted": 1, "refused_as_tilted": 0, "tilted_median_pitch_deg": None,
+                                    "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None}
 
 
 def test_without_a_fit_there_is_no_plane_and_no_length():

@@ -304,9 +304,30 @@ def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_plane
     tally.add(leaning(1.0), trusted=True)
     assert tally.mounting_hint_deg() == pytest.approx(8.1)
     assert tally.record() == {"trusted": 1, "refused_as_tilted": MIN_TILTED_FOR_HINT + 5,
-                              "tilted_median_pitch_deg": 8.1}
+                              "tilted_median_pitch_deg": 8.1, "candidates_median_pitch_deg": 8.1,
+                              "candidates_median_roll_deg": 0.0}
     tally.trusted += MIN_TILTED_FOR_HINT + 5  # as many trusted: a hilly drive, not a pitched camera
     assert tally.mounting_hint_deg() is None
     few = RoadPlaneTally()
     few.add(leaning(-9.0), trusted=False)  # refused, but one plane says nothing of the mounting
-    assert few.tilted_pitches_deg == [pytest.approx(-9.0)] and few.mounting_hint_deg() is None
+    assert few.pitches_deg == [pytest.approx(-9.0)] and few.mounting_hint_deg() is None
+
+
+def test_the_pitch_advised_is_a_fixed_point_once_given():
+    """Planes that scatter widely about a camera pitched 3 degrees up (most beyond the 4 degree gate, as on the real
+    dash-cam): the advice is the median of every candidate, not of the refused ones (which lean by more than the
+    gate by construction); given it, the same planes centre on the road and nothing more is advised."""
+    from flowvo.odometry.road_scale import MAX_ROAD_TILT_RAD, RoadPlane, RoadPlaneTally
+
+    def tally_of(pitches_deg):
+        tally = RoadPlaneTally()
+        for pitch_deg in pitches_deg:
+            pitch = np.radians(pitch_deg)
+            plane = RoadPlane(50.0, np.array([0.0, np.cos(pitch), np.sin(pitch)]), 0.5, np.zeros(3))
+            tally.add(plane, trusted=plane.tilt_rad <= MAX_ROAD_TILT_RAD)
+        return tally
+
+    scatter = np.linspace(-9.0, 9.0, 60)  # most planes refused, before and after the advice
+    hint = tally_of(-3.0 + scatter).mounting_hint_deg()
+    assert hint == pytest.approx(-3.0)  # the refused planes alone had said -7.0
+    assert tally_of(-3.0 - hint + scatter).mounting_hint_deg() is None

@@ -40,6 +40,7 @@ from flowvo.odometry.road_scale import NetworkFallbackPolicy, RoadPlane, road_fl
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
+from flowvo.odometry.still_regions import STILL_SHARE, StillRegions
 from flowvo.odometry.two_view import (
     EssentialMotion,
     essential_motion,
@@ -64,6 +65,9 @@ MIN_ROAD_PARALLAX_PX = 1.0  # at the reference width: a road whose points moved 
 # ten of them) since the road key frame has lost its flow (no texture; synthetic replay 10, 0.3-1.5 px at 0.5-0.9 m
 # a step: flowvo-geometry 28.3 % without this gate, 6.9 % with it); the median instead of the 90th percentile
 # also rejected real clip 07's start at walking pace, where the far rows barely move
+STILL_TRACKS_FROM = 0.25  # frame heights below the principal point: tracks from there down are judged for still
+# regions (odometry.still_regions; KITTI: the road 10 m ahead and nearer; nearer the horizon distant points ahead
+# barely move, and on real clip 06 cells at 0.1-0.2 were taken for still)
 ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (LK tracks are sub-pixel)
 ROBUST_SCALE_PX = 0.06  # at the reference width: Cauchy scale of the robust refit of each essential fit
 # (two_view.refined_motion): synthetic replays 08-10 pooled 1.13 -> 0.99 %, 0.0039 -> 0.0033 deg/m; 0.03 px
@@ -149,7 +153,9 @@ class FlowGeometryStep(WorkingFrames):
         no_room = road_room(image_size_hw, camera.intrinsics.K)
         if no_room:
             raise FlowvoError(f"{no_room} (check the intrinsics; --method classical needs no road)")
-        self.road = RoadFlow(self.camera, self.working_hw, flow_method)
+        self.road = RoadFlow(self.camera, self.working_hw, flow_method, scale)
+        self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
+                                         STILL_SHARE / 2)
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
                               f"method: its road crop is {self.road.crop_hw[1]}x{self.road.crop_hw[0]} px, the flow "
@@ -171,6 +177,7 @@ class FlowGeometryStep(WorkingFrames):
         self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, levelling, MIN_ROAD_PARALLAX_PX * scale)
         self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M)
         self.road_too_fast_steps = 0  # road lengths the window was not given: faster than a car could have driven
+        self._records_m: list[StepRecord] = []  # the window's records in metres, as far as converted
         self.dis_reach_px = DIS_REACH_PX * scale
         self.min_parallax_px = MIN_PARALLAX_PX * scale
         self.last_motion = np.eye(4)
@@ -188,10 +195,9 @@ class FlowGeometryStep(WorkingFrames):
         working = super().prepare(image)
         previous = self._previous
         textured = textured_points(working)
-        landmarks = None if self.landmark_tracker is None else self.landmark_tracker.advance(working, textured)
         if previous is None:
             self._previous = GeometryFrame(working, textured, *(np.zeros((0, 2), np.float32),) * 2,
-                                           landmarks=landmarks)
+                                           landmarks=self._landmarks(working, textured))
             return self._previous
         continued_rows = np.arange(0, len(previous.tracked_next), CONTINUE_EVERY) if self.window else \
             np.zeros(0, np.int64)
@@ -199,10 +205,17 @@ class FlowGeometryStep(WorkingFrames):
         start = np.concatenate([previous.textured_px, previous.tracked_next[continued_rows]])
         moved, found = lucas_kanade(previous.image, working, start, TRACK_WINDOW_PX)  # one call: each point is
         # tracked alone
-        self._previous = GeometryFrame(working, textured, start[:count][found[:count]],
-                                       moved[:count][found[:count]], continued_rows[found[count:]],
-                                       moved[count:][found[count:]], landmarks)
+        tracked_prev, tracked_next = start[:count][found[:count]], moved[:count][found[:count]]
+        self.still_tracks.observe(tracked_prev, np.linalg.norm(tracked_next - tracked_prev, axis=1))
+        if self.still_tracks.still_cells:  # no new tracks from a bonnet, a dashboard, a watermark
+            textured = textured[self.still_tracks.keep(textured)]
+        self._previous = GeometryFrame(working, textured, tracked_prev, tracked_next, continued_rows[found[count:]],
+                                       moved[count:][found[count:]], self._landmarks(working, textured))
         return self._previous
+
+    def _landmarks(self, working: np.ndarray, textured: np.ndarray) -> Landmarks | None:
+        """``flowvo-ba``: the landmark tracks of the frame (None for the other methods)."""
+        return None if self.landmark_tracker is None else self.landmark_tracker.advance(working, textured)
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
         """Point tracks over the whole frame (from ``prepare``), the dense flow of the road crop from the
@@ -392,7 +405,9 @@ class FlowGeometryStep(WorkingFrames):
             return None
         if self.metres_per_unit == 1.0:
             return self.window.records
-        return [record._replace(length_m=record.length_m * self.metres_per_unit) for record in self.window.records]
+        self._records_m += [record._replace(length_m=record.length_m * self.metres_per_unit)
+                            for record in self.window.records[len(self._records_m):]]
+        return self._records_m
 
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
@@ -401,12 +416,16 @@ class FlowGeometryStep(WorkingFrames):
         fit's (:mod:`flowvo.odometry.yaw_rate`), how many steps' rotations were measured from an earlier key frame
         (:mod:`flowvo.odometry.rotation_key`), the window's latency (frames: how late each motion is final), how many
         steps each kind of measurement reached, the median standard deviation of a step's log length and how
-        many moving steps no measurement of the scale reached (:class:`StepRecord`), and how many measured speeds
+        many moving steps no measurement of the scale reached (:class:`StepRecord`), how many cells of the road grid
+        and of the tracked points stood still at the end (a bonnet: :mod:`flowvo.odometry.still_regions`), how many
+        measured speeds
         were refused as faster than a car could have driven (``speed_limit``: the limit is 45 m/s for a camera
         1.65 m high, in proportion to the height, and lower soon after a standstill)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_length.tally.record()
         kept.update(self.checks.summary())
+        kept["still_regions"] = {"road_cells": self.road.still.still_cells,
+                                 "track_cells": self.still_tracks.still_cells}
         kept["speed_limit"] = {"max_speed_mps": self.speed.max_speed_mps * self.metres_per_unit,
                                "refused_measurements": self.speed.implausible_measurements + self.road_too_fast_steps}
         if self.window is not None:

@@ -11,7 +11,8 @@ import numpy as np
 
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.flow.registry import create_estimator
-from flowvo.odometry.road_scale import road_crop, road_grid, road_points_in_view
+from flowvo.odometry.road_scale import ROAD_ROWS, road_crop, road_grid, road_points_in_view
+from flowvo.odometry.still_regions import StillRegions
 from flowvo.odometry.two_view import follow_flow
 
 ROAD_WARP_INTERPOLATION = cv2.INTER_CUBIC  # how the current frame is warped onto the predicted road: bilinear
@@ -22,9 +23,12 @@ ROAD_WARP_INTERPOLATION = cv2.INTER_CUBIC  # how the current frame is warped ont
 
 class RoadFlow:
     """The road crop and grid of working frames of ``working_hw`` (pixels) seen by ``camera`` (at the working
-    resolution), and the dense flow (``flow_method``) that moves the grid from one frame to another."""
+    resolution), and the dense flow (``flow_method``) that moves the grid from one frame to another; grid points in
+    cells that stand still while the road moves (a bonnet) are left out (:mod:`flowvo.odometry.still_regions`:
+    judged in the grid's near half, where the road moves more than its median; ``scale``: working width over the
+    reference width)."""
 
-    def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str) -> None:
+    def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0) -> None:
         self.camera, self.K, self.working_hw = camera, camera.intrinsics.K, working_hw
         self.estimator = create_estimator(flow_method)
         self.crop = road_crop(working_hw, self.K)
@@ -34,6 +38,8 @@ class RoadFlow:
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
+        self.still = StillRegions(working_hw, self.K[1, 2] + working_hw[0] * sum(ROAD_ROWS) / 2, scale)
+        self._keep: np.ndarray | None = None  # the grid points outside the still cells (None: all)
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
         self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
 
@@ -56,8 +62,12 @@ class RoadFlow:
         scattered less (inter-quartile range 4.7 against 7.1 %, with dis-medium-fine) than when only road
         motion over 12 px was predicted. The homography acts on undistorted pixels; with lens
         distortion the warp goes through the lens."""
-        return road_points_in_view(self.grid_undistorted_px, self._moved(previous, current, prediction),
-                                   self.working_hw)
+        moved = self._moved(previous, current, prediction)
+        if self.still.observe(self.grid_px, np.linalg.norm(moved - self.grid_undistorted_px, axis=1)):
+            self._keep = self.still.keep(self.grid_px) if self.still.still_cells else None
+        if self._keep is None:
+            return road_points_in_view(self.grid_undistorted_px, moved, self.working_hw)
+        return road_points_in_view(self.grid_undistorted_px[self._keep], moved[self._keep], self.working_hw)
 
     def _moved(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
         """Where every road grid point of ``previous`` is in ``current`` (R, 2), undistorted working pixels

@@ -292,38 +292,54 @@ def onward_road_homography(K: np.ndarray, plane: RoadPlane, key_motion: Essentia
 
 
 MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before their pitch says anything of the mounting
+MIN_HINT_DEG = 1.0  # the candidates' median pitch must be this far from the pitch given before a change is advised:
+# real KITTI's level camera reads 0.0-1.0 degrees, and an advice taken must not be followed by another
 
 
 class RoadPlaneTally:
-    """How the drive's candidate road planes fared: trusted, or refused as tilted (with the pitch of each:
-    degrees, the angle of its normal from the road's normal about the camera's x axis, positive when the
-    camera looks further down than it was said to). A camera pitched down but taken for level sees every
-    road plane tilted by its pitch: most planes refused, their pitches alike."""
+    """How the drive's candidate road planes fared: trusted, or refused as tilted, and the pitch and roll of every
+    candidate (degrees, its normal's angle from the road's normal about the camera's x axis, positive when the
+    camera looks further down than it was said to, and about its z axis, positive when the camera's right side
+    is lower). A camera pitched down but taken for level sees every road plane tilted by its pitch: most planes
+    refused, their pitches alike. The mounting is estimated from all candidates, not from the refused ones alone
+    (those lean by more than the gate by construction: advice from them never settled)."""
 
     def __init__(self) -> None:
         self.trusted = 0
-        self.tilted_pitches_deg: list[float] = []
+        self.refused_as_tilted = 0
+        self.pitches_deg: list[float] = []
+        self.rolls_deg: list[float] = []
 
     def add(self, plane: RoadPlane, trusted: bool, max_tilt_rad: float = MAX_ROAD_TILT_RAD) -> None:
         """Count a candidate plane (level frame) and whether it was trusted."""
-        if trusted:
-            self.trusted += 1
-        elif plane.tilt_rad > max_tilt_rad:
-            self.tilted_pitches_deg.append(float(np.degrees(np.arctan2(plane.normal[2], plane.normal[1]))))
+        self.trusted += trusted
+        self.refused_as_tilted += not trusted and plane.tilt_rad > max_tilt_rad
+        self.pitches_deg.append(float(np.degrees(np.arctan2(plane.normal[2], plane.normal[1]))))
+        self.rolls_deg.append(float(np.degrees(np.arctan2(-plane.normal[0], plane.normal[1]))))
+
+    def mounting_deg(self) -> tuple[float, float] | None:
+        """The camera's pitch and roll relative to the ones given (degrees), the medians over every candidate plane;
+        None before ``MIN_TILTED_FOR_HINT`` candidates."""
+        if len(self.pitches_deg) < MIN_TILTED_FOR_HINT:
+            return None
+        return float(np.median(self.pitches_deg)), float(np.median(self.rolls_deg))
 
     def mounting_hint_deg(self) -> float | None:
-        """The median pitch of the refused planes when most candidate planes were refused as tilted, at least
-        ``MIN_TILTED_FOR_HINT`` of them (the camera's pitch is then likely off by it), else None."""
-        tilted = len(self.tilted_pitches_deg)
-        if tilted < MIN_TILTED_FOR_HINT or tilted <= self.trusted:
+        """The pitch to add to the one given when most candidate planes were refused as tilted, at least
+        ``MIN_TILTED_FOR_HINT`` of them, and the candidates' median pitch lies ``MIN_HINT_DEG`` or more off; else
+        None (given the advice, the next run's candidates centre on the road and nothing more is advised)."""
+        mounting = self.mounting_deg()
+        if self.refused_as_tilted < MIN_TILTED_FOR_HINT or self.refused_as_tilted <= self.trusted or mounting is None:
             return None
-        return float(np.median(self.tilted_pitches_deg))
+        return mounting[0] if abs(mounting[0]) >= MIN_HINT_DEG else None
 
     def record(self) -> dict:
         """The tally as ``run.json`` records it."""
-        hint = self.mounting_hint_deg()
-        return {"trusted": self.trusted, "refused_as_tilted": len(self.tilted_pitches_deg),
-                "tilted_median_pitch_deg": None if hint is None else round(hint, 2)}
+        hint, mounting = self.mounting_hint_deg(), self.mounting_deg()
+        return {"trusted": self.trusted, "refused_as_tilted": self.refused_as_tilted,
+                "tilted_median_pitch_deg": None if hint is None else round(hint, 2),
+                "candidates_median_pitch_deg": None if mounting is None else round(mounting[0], 2),
+                "candidates_median_roll_deg": None if mounting is None else round(mounting[1], 2)}
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own

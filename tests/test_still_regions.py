@@ -1,0 +1,44 @@
+"""Regions that do not move with the scene (flowvo.odometry.still_regions): a bonnet in the bottom rows is found
+from points that stand still while the rest moves, a car that drove along and then fell behind is let go again,
+and nothing is judged while the whole scene stands still or above the first judged row."""
+
+import numpy as np
+
+from flowvo.odometry.still_regions import MIN_STEPS, StillRegions
+
+HW = (188, 620)
+GRID = np.stack(np.meshgrid(np.arange(8.0, 612.0, 8.0), np.arange(100.0, 184.0, 8.0)), axis=-1).reshape(-1, 2)
+BONNET = GRID[:, 1] >= 160  # the bottom rows: a bonnet
+
+
+def observe_steps(regions, count, motion_px):
+    changed = [regions.observe(GRID, motion_px) for _ in range(count)]
+    return any(changed)
+
+
+def test_a_bonnet_that_stands_still_while_the_road_moves_is_left_out():
+    regions = StillRegions(HW, first_row=120)
+    motion = np.where(BONNET, 0.05, 3.0)
+    assert not observe_steps(regions, MIN_STEPS - 1, motion)  # not judged before MIN_STEPS steps
+    assert observe_steps(regions, 1, motion)
+    keep = regions.keep(GRID)
+    np.testing.assert_array_equal(keep, ~BONNET)
+    assert regions.still_cells > 0
+
+
+def test_nothing_is_judged_while_the_scene_stands_still_or_above_the_first_row():
+    regions = StillRegions(HW, first_row=120)
+    observe_steps(regions, 3 * MIN_STEPS, np.full(len(GRID), 0.1))  # a standstill: everything still, nothing learnt
+    assert regions.keep(GRID).all()
+    high = StillRegions(HW, first_row=176)  # the bonnet's rows start above the first judged row but one
+    observe_steps(high, 3 * MIN_STEPS, np.where(BONNET, 0.05, 3.0))
+    assert (~high.keep(GRID)).sum() == (GRID[:, 1] >= 176).sum()
+
+
+def test_a_car_that_drove_along_and_fell_behind_is_let_go():
+    regions = StillRegions(HW, first_row=120)
+    along = np.where(BONNET, 0.05, 3.0)
+    observe_steps(regions, 2 * MIN_STEPS, along)
+    assert not regions.keep(GRID).all()
+    observe_steps(regions, 4 * MIN_STEPS, np.full(len(GRID), 3.0))  # the same cells move with the road again
+    assert regions.keep(GRID).all() and regions.still_cells == 0
