@@ -67,7 +67,8 @@ def test_a_road_plane_within_4_degrees_is_trusted_and_tallied():
     assert road_m == pytest.approx(1.0, rel=1e-9)  # the height is measured along the plane's own normal
     assert plane.tilt_rad == pytest.approx(pitch, rel=1e-6)
     assert stage.tally.record() == {"trusted": 1, "refused_as_tilted": 0, "tilted_median_pitch_deg": None,
-                                    "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None}
+                                    "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None,
+        "candidates_pitch_spread_deg": None}
 
 
 def test_without_a_fit_there_is_no_plane_and_no_length():

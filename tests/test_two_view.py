@@ -305,7 +305,7 @@ def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_plane
     assert tally.mounting_hint_deg() == pytest.approx(8.1)
     assert tally.record() == {"trusted": 1, "refused_as_tilted": MIN_TILTED_FOR_HINT + 5,
                               "tilted_median_pitch_deg": 8.1, "candidates_median_pitch_deg": 8.1,
-                              "candidates_median_roll_deg": 0.0}
+                              "candidates_median_roll_deg": 0.0, "candidates_pitch_spread_deg": 0.2}
     tally.trusted += MIN_TILTED_FOR_HINT + 5  # as many trusted: a hilly drive, not a pitched camera
     assert tally.mounting_hint_deg() is None
     few = RoadPlaneTally()
@@ -313,10 +313,10 @@ def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_plane
     assert few.pitches_deg == [pytest.approx(-9.0)] and few.mounting_hint_deg() is None
 
 
-def test_the_pitch_advised_is_a_fixed_point_once_given():
-    """Planes that scatter widely about a camera pitched 3 degrees up (most beyond the 4 degree gate, as on the real
-    dash-cam): the advice is the median of every candidate, not of the refused ones (which lean by more than the
-    gate by construction); given it, the same planes centre on the road and nothing more is advised."""
+def test_the_pitch_advised_is_a_fixed_point_once_given_and_scattered_planes_advise_nothing():
+    """Planes leaning alike about a camera pitched 6 degrees up, and some level ones (most refused): the advice is the
+    median of every candidate, not of the refused ones; given it, nothing more is advised. Planes refused but
+    scattered over many degrees (the real dash-cam's) say the road's flow is poor, not the mounting: no advice."""
     from flowvo.odometry.road_scale import MAX_ROAD_TILT_RAD, RoadPlane, RoadPlaneTally
 
     def tally_of(pitches_deg):
@@ -327,7 +327,10 @@ def test_the_pitch_advised_is_a_fixed_point_once_given():
             tally.add(plane, trusted=plane.tilt_rad <= MAX_ROAD_TILT_RAD)
         return tally
 
-    scatter = np.linspace(-9.0, 9.0, 60)  # most planes refused, before and after the advice
-    hint = tally_of(-3.0 + scatter).mounting_hint_deg()
-    assert hint == pytest.approx(-3.0)  # the refused planes alone had said -7.0
-    assert tally_of(-3.0 - hint + scatter).mounting_hint_deg() is None
+    alike = np.r_[np.linspace(-0.7, 0.7, 40), np.zeros(10) + 6.0]
+    hint = tally_of(-6.0 + alike).mounting_hint_deg()
+    assert hint == pytest.approx(np.median(-6.0 + alike))
+    assert tally_of(-6.0 - hint + alike).mounting_hint_deg() is None
+    scattered = tally_of(-3.0 + np.linspace(-9.0, 9.0, 60))  # most refused, over 9 degrees of inter-quartile range
+    assert scattered.refused_as_tilted > scattered.trusted and scattered.mounting_hint_deg() is None
+    assert scattered.record()["candidates_pitch_spread_deg"] == pytest.approx(9.0, abs=0.2)

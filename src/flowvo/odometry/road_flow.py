@@ -11,7 +11,7 @@ import numpy as np
 
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.flow.registry import create_estimator
-from flowvo.odometry.road_scale import ROAD_ROWS, road_crop, road_grid, road_points_in_view
+from flowvo.odometry.road_scale import GRID_MARGIN_PX, ROAD_ROWS, road_crop, road_grid, road_points_in_view
 from flowvo.odometry.still_regions import StillRegions
 from flowvo.odometry.two_view import follow_flow
 
@@ -38,7 +38,8 @@ class RoadFlow:
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
-        self.still = StillRegions(working_hw, self.K[1, 2] + working_hw[0] * sum(ROAD_ROWS) / 2, scale)
+        self.still = StillRegions(working_hw, self.K[1, 2] + working_hw[0] * sum(ROAD_ROWS) / 2, scale,
+                                  cell_px=GRID_MARGIN_PX)  # a cell per grid point: a bonnet's edge cuts through cells
         self._keep: np.ndarray | None = None  # the grid points outside the still cells (None: all)
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
         self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))

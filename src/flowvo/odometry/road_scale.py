@@ -294,6 +294,9 @@ def onward_road_homography(K: np.ndarray, plane: RoadPlane, key_motion: Essentia
 MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before their pitch says anything of the mounting
 MIN_HINT_DEG = 1.0  # the candidates' median pitch must be this far from the pitch given before a change is advised:
 # real KITTI's level camera reads 0.0-1.0 degrees, and an advice taken must not be followed by another
+MAX_ALIKE_SPREAD_DEG = 2.0  # the candidates' pitches must lean alike (inter-quartile range below this) for their median
+# to be the mounting: the real dash-cam's scatter over 4.4 degrees (-6.5 to -2.1), and the pitch its median advised
+# (-3.4, the horizon says -1.7) halved its speed when given back ([dashcam.md](dashcam.md))
 
 
 class RoadPlaneTally:
@@ -312,8 +315,8 @@ class RoadPlaneTally:
 
     def add(self, plane: RoadPlane, trusted: bool, max_tilt_rad: float = MAX_ROAD_TILT_RAD) -> None:
         """Count a candidate plane (level frame) and whether it was trusted."""
-        self.trusted += trusted
-        self.refused_as_tilted += not trusted and plane.tilt_rad > max_tilt_rad
+        self.trusted += bool(trusted)
+        self.refused_as_tilted += bool(not trusted and plane.tilt_rad > max_tilt_rad)
         self.pitches_deg.append(float(np.degrees(np.arctan2(plane.normal[2], plane.normal[1]))))
         self.rolls_deg.append(float(np.degrees(np.arctan2(-plane.normal[0], plane.normal[1]))))
 
@@ -324,14 +327,22 @@ class RoadPlaneTally:
             return None
         return float(np.median(self.pitches_deg)), float(np.median(self.rolls_deg))
 
+    def pitch_spread_deg(self) -> float | None:
+        """The inter-quartile range of the candidates' pitches (degrees); None before ``MIN_TILTED_FOR_HINT``."""
+        if len(self.pitches_deg) < MIN_TILTED_FOR_HINT:
+            return None
+        low, high = np.percentile(self.pitches_deg, [25, 75])
+        return float(high - low)
+
     def mounting_hint_deg(self) -> float | None:
         """The pitch to add to the one given when most candidate planes were refused as tilted, at least
-        ``MIN_TILTED_FOR_HINT`` of them, and the candidates' median pitch lies ``MIN_HINT_DEG`` or more off; else
-        None (given the advice, the next run's candidates centre on the road and nothing more is advised)."""
-        mounting = self.mounting_deg()
+        ``MIN_TILTED_FOR_HINT`` of them, leaning alike (``MAX_ALIKE_SPREAD_DEG``), and their median pitch lies
+        ``MIN_HINT_DEG`` or more off; else None (given the advice, the next run's candidates centre on the road and
+        nothing more is advised). Planes refused but scattered say the road's flow is poor, not the mounting."""
+        mounting, spread = self.mounting_deg(), self.pitch_spread_deg()
         if self.refused_as_tilted < MIN_TILTED_FOR_HINT or self.refused_as_tilted <= self.trusted or mounting is None:
             return None
-        return mounting[0] if abs(mounting[0]) >= MIN_HINT_DEG else None
+        return mounting[0] if abs(mounting[0]) >= MIN_HINT_DEG and spread < MAX_ALIKE_SPREAD_DEG else None
 
     def record(self) -> dict:
         """The tally as ``run.json`` records it."""
@@ -339,7 +350,8 @@ class RoadPlaneTally:
         return {"trusted": self.trusted, "refused_as_tilted": self.refused_as_tilted,
                 "tilted_median_pitch_deg": None if hint is None else round(hint, 2),
                 "candidates_median_pitch_deg": None if mounting is None else round(mounting[0], 2),
-                "candidates_median_roll_deg": None if mounting is None else round(mounting[1], 2)}
+                "candidates_median_roll_deg": None if mounting is None else round(mounting[1], 2),
+                "candidates_pitch_spread_deg": None if mounting is None else round(self.pitch_spread_deg(), 2)}
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own

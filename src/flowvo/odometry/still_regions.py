@@ -29,12 +29,13 @@ MIN_SCENE_PX = 1.0  # at the reference width: a step whose points' median motion
 class StillRegions:
     """The still cells of frames of ``image_hw`` (working pixels), judged from row ``first_row`` down;
     ``scale``: working width over the reference width (thresholds in pixels scale with it); ``still_share``: see
-    ``STILL_SHARE``."""
+    ``STILL_SHARE``; ``cell_px``: the cells' side in working pixels (default ``CELL_PX`` scaled; the road grid's
+    spacing gives each grid point a cell of its own)."""
 
     def __init__(self, image_hw: tuple[int, int], first_row: float, scale: float = 1.0,
-                 still_share: float = STILL_SHARE) -> None:
+                 still_share: float = STILL_SHARE, cell_px: float | None = None) -> None:
         self.still_share = still_share
-        self.cell_px = CELL_PX * scale
+        self.cell_px = CELL_PX * scale if cell_px is None else cell_px
         self.min_scene_px = MIN_SCENE_PX * scale
         self.shape = (int(np.ceil(image_hw[0] / self.cell_px)), int(np.ceil(image_hw[1] / self.cell_px)))
         rows = np.arange(self.shape[0]) * self.cell_px >= first_row  # cells wholly below first_row
