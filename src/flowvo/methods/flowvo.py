@@ -34,9 +34,15 @@ from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
 from flowvo.odometry.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.odometry.motion_checks import MotionChecks
 from flowvo.odometry.road_flow import RoadFlow
-from flowvo.odometry.road_key import DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
+from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
-from flowvo.odometry.road_scale import NetworkFallbackPolicy, RoadPlane, road_flow_within_reach, road_room
+from flowvo.odometry.road_scale import (
+    NetworkFallbackPolicy,
+    RoadPlane,
+    near_road_parallax_px,
+    road_flow_within_reach,
+    road_room,
+)
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
@@ -175,7 +181,8 @@ class FlowGeometryStep(WorkingFrames):
         # acts alike at any height, and each length given out is exactly proportional to the height
         self.metres_per_unit = self.camera.camera_height_m / KITTI_CAMERA_HEIGHT_M
         self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, levelling, MIN_ROAD_PARALLAX_PX * scale)
-        self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M)
+        self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M,
+                                                                  BASELINE_PX * scale)
         self.road_too_fast_steps = 0  # road lengths the window was not given: faster than a car could have driven
         self._records_m: list[StepRecord] = []  # the window's records in metres, as far as converted
         self.dis_reach_px = DIS_REACH_PX * scale
@@ -276,6 +283,10 @@ class FlowGeometryStep(WorkingFrames):
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
+        near_px = 0.0 if plane is None else near_road_parallax_px(flow.road_prev, flow.road_next, self.K,
+                                                                  key_fit.R) / span.steps
+        self.road_key.slide(flow.current, time_s, invert_se3(self.last_motion), self.road_length.normal.normal,
+                            near_px)
         if self.window is not None:
             self._record_step(times_s, span, fit, step_m, road_m, network_m, last_step, flow)
         return self._in_metres(self.last_motion)
@@ -297,6 +308,7 @@ class FlowGeometryStep(WorkingFrames):
     def _stand_still(self, time_s: float) -> np.ndarray:
         """The road and the scene stand still (distant points alone can mislead): the identity, the speed
         history restarted at ``time_s``."""
+        self.road_key.forget()
         self.checks.forget()
         self.speed.stop(time_s)
         self.last_motion = np.eye(4)
@@ -304,6 +316,7 @@ class FlowGeometryStep(WorkingFrames):
 
     def _keep_last_motion(self, dt_s: float) -> np.ndarray:
         """No fit (degenerate): the last motion again (constant velocity), unmeasured."""
+        self.road_key.forget()
         self.road_length.forget()
         self.checks.forget()
         T_next_prev = invert_se3(self.last_motion)

@@ -3,7 +3,10 @@
 Where the road moved little (slow driving) a step keeps its start frame as the road key frame, up to
 ``MAX_ROAD_KEY_S`` back, so that the next step measures the road over a longer baseline; where the last step
 found the road plane, the next step's road flow is predicted by that plane under the motion so far (constant
-velocity), and DIS measures only the residual (:class:`flowvo.odometry.road_flow.RoadFlow`).
+velocity), and DIS measures only the residual (:class:`flowvo.odometry.road_flow.RoadFlow`). Where one step
+moves the near road less than ``BASELINE_PX`` beyond the rotation, the next step's road is measured from the
+frame as many steps back as that baseline takes (:meth:`RoadKeyFrame.slide`): a sliding key frame, its flow
+predicted through the steps since.
 
 Times in seconds; pixels of the working frame (thresholds given at :data:`REFERENCE_WIDTH_PX` and scaled);
 homographies on undistorted working pixels; lengths in metres.
@@ -11,12 +14,13 @@ homographies on undistorted working pixels; lengths in metres.
 
 from __future__ import annotations
 
+from collections import deque
 from dataclasses import dataclass
 from typing import Generic, TypeVar
 
 import numpy as np
 
-from flowvo.odometry.road_scale import RoadPlane, onward_road_homography, road_homography
+from flowvo.odometry.road_scale import RoadPlane, metric_road_homography, onward_road_homography, road_homography
 from flowvo.odometry.two_view import EssentialMotion
 
 DIS_REACH_PX = 12.0  # at the reference width: road motion DIS follows without a prediction; beyond, it
@@ -28,6 +32,11 @@ MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when t
 MAX_KEY_PREDICTION_SPEED_MPS = 6.0  # below it a kept road key frame's flow is predicted too (as the previous
 # frame's is): clip 07 over working widths 1.63 -> 1.47 % (median); at any speed as good, but earlier a wrong
 # two-step plane at 12 m/s passed every gate on a generated drive
+BASELINE_PX = DIS_REACH_PX  # at the reference width: the near road's parallax (90th percentile of the road
+# points' motion beyond the rotation) a road flow should span. One step of real KITTI 03 at 6-9 m/s moves it 8-14 px,
+# and its road lengths came out 2 % short there (its path -2.0 %, t_err 2.17 %), 0.7 % at 5 Hz: the road is then
+# measured from the frame ceil(BASELINE_PX / per-step parallax) steps back (sliding, at most MAX_ROAD_KEY_S):
+# 03 1.13 %, path -1.0 %; 10 px 1.64 %, 14 px 1.11 %, 18 px 1.06 % but clip 01 (16-29 px a step) 1.10 -> 1.89 %
 TIME_TOLERANCE_S = 1e-6  # timestamps from different containers differ in their last bits (0.3 against
 # 0.30000000000000004): an age compared with MAX_ROAD_KEY_S must not depend on them
 
@@ -51,13 +60,17 @@ class RoadKeyFrame(Generic[Frame]):
     """The road key frame of a stream of steps (module docstring): ``frame`` is where the next step's road flow
     starts (None: the previous frame), ``prediction`` the road homography that flow is measured through (None:
     measured as it is). ``key_road_px``: the road motion (working pixels, median) under which a key frame is
-    kept; ``camera_height_m``: the road's distance below the camera."""
+    kept; ``camera_height_m``: the road's distance below the camera; ``baseline_px``: the near road's parallax a
+    road flow should span (0: none, every step measures its road from its previous frame or a kept key frame)."""
 
-    def __init__(self, K: np.ndarray, key_road_px: float, camera_height_m: float) -> None:
+    def __init__(self, K: np.ndarray, key_road_px: float, camera_height_m: float, baseline_px: float = 0.0) -> None:
         self.K, self.key_road_px, self.camera_height_m = K, key_road_px, camera_height_m
         self.frame: Frame | None = None
         self.prediction: np.ndarray | None = None
         self._start_s, self._steps = 0.0, 0
+        self.baseline_px = baseline_px
+        self._recent: deque[tuple[Frame, float, np.ndarray]] = deque()  # (frame, time_s, T_next_prev of the step
+        # that ended there, metres) of the frames a sliding key frame may start from
 
     def begin(self, previous: Frame, previous_s: float, from_previous: bool) -> RoadSpan[Frame]:
         """The span of the step that starts at frame ``previous`` (at ``previous_s``), its road flow measured
@@ -92,3 +105,34 @@ class RoadKeyFrame(Generic[Frame]):
                                                          road_m / span.steps, self.camera_height_m)
         elif span.from_previous:
             self.prediction = road_homography(self.K, step_motion, plane)
+
+    def forget(self) -> None:
+        """No motion was measured (a standstill, a step without a fit): no sliding key frame before the next step."""
+        self._recent.clear()
+
+    def slide(self, current: Frame, time_s: float, T_next_prev: np.ndarray, normal: np.ndarray | None,
+              near_px_per_step: float) -> None:
+        """After the step ending at frame ``current`` (``time_s``) with the metric motion ``T_next_prev`` (4x4, the
+        step's own length estimate) whose road moved its near points ``near_px_per_step`` beyond the rotation
+        (0: no trusted plane): where that is less than ``baseline_px``, and :meth:`end` kept no key frame, the next
+        step measures the road from the frame ``ceil(baseline_px / near_px_per_step)`` steps before it (at most
+        ``MAX_ROAD_KEY_S`` back), its flow predicted by the road's ``normal`` (current frame; None: no prediction,
+        no sliding key frame) ``camera_height_m`` below that frame under the steps since and this one again."""
+        self._recent.append((current, time_s, T_next_prev))
+        dt_s = time_s - self._recent[-2][1] if len(self._recent) > 1 else 0.0
+        while len(self._recent) > 1 and time_s + dt_s - self._recent[0][1] > MAX_ROAD_KEY_S + TIME_TOLERANCE_S:
+            self._recent.popleft()
+        if self.frame is not None or normal is None or near_px_per_step <= 0.0 or \
+                near_px_per_step >= self.baseline_px:
+            return
+        steps = min(len(self._recent), int(np.ceil(self.baseline_px / near_px_per_step)))
+        if steps < 2:
+            return
+        recent = list(self._recent)[-steps:]
+        T_current_key = np.eye(4)
+        for _, _, T_step in recent[1:]:
+            T_current_key = T_step @ T_current_key
+        self.frame, self._start_s, _ = recent[0]
+        self._steps = steps - 1
+        self.prediction = metric_road_homography(self.K, T_next_prev @ T_current_key,
+                                                 T_current_key[:3, :3].T @ normal, self.camera_height_m)

@@ -291,6 +291,21 @@ def onward_road_homography(K: np.ndarray, plane: RoadPlane, key_motion: Essentia
     return K @ (R + np.outer(t_m, plane.normal) / height_m) @ np.linalg.inv(K)
 
 
+def metric_road_homography(K: np.ndarray, T_next_key: np.ndarray, normal: np.ndarray, height_m: float) -> np.ndarray:
+    """The road homography from a key frame to a later frame (ideal pinhole pixels) under the metric motion
+    ``T_next_key`` (4x4, the key frame's points into the later frame's), the road ``height_m`` metres below the key
+    frame's camera along ``normal`` (unit, the key frame's camera frame)."""
+    return K @ (T_next_key[:3, :3] + np.outer(T_next_key[:3, 3], normal) / height_m) @ np.linalg.inv(K)
+
+
+def near_road_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, R: np.ndarray) -> float:
+    """How far the near road moved beyond the rotation ``R`` (``R_next_prev``), pixels: the ``NEAR_ROAD_PERCENTILE``
+    of the road correspondences' (N, 2) translation parallax (0 without any)."""
+    if not len(points_prev):
+        return 0.0
+    return float(np.percentile(translation_parallax_px(points_prev, points_next, K, R), NEAR_ROAD_PERCENTILE))
+
+
 MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before their pitch says anything of the mounting
 MIN_HINT_DEG = 1.0  # the candidates' median pitch must be this far from the pitch given before a change is advised:
 # real KITTI's level camera reads 0.0-1.0 degrees, and an advice taken must not be followed by another
