@@ -18,6 +18,7 @@ from flowvo.methods.cnn import load_cnn_step
 from flowvo.methods.flowvo import FlowGeometryStep
 from flowvo.odometry.bundle_window import BundleSettings
 from flowvo.odometry.scale_window import ScaleWindow
+from flowvo.odometry.scale_window_scipy import scipy_log_lengths
 
 DEFAULT_WINDOW: dict = {}
 VARIANTS: dict[str, tuple[dict | None, BundleSettings | None]] = {
@@ -30,7 +31,7 @@ VARIANTS: dict[str, tuple[dict | None, BundleSettings | None]] = {
     "window 4 s, latency 5": (dict(window_s=4.0), None),
     "window 2 s, latency 5, no three-view ratios": (dict(ratios=False), None),
     "window 2 s, latency 5, steps leaving the window forgotten": (dict(marginalise=False), None),
-    "window 2 s, latency 5, SciPy's least_squares as the solver": (dict(solver="scipy"), None),
+    "window 2 s, latency 5, SciPy's least_squares as the solver": (dict(solver=scipy_log_lengths), None),
     "default + bundle adjustment over 6 frames": (DEFAULT_WINDOW, BundleSettings(frames=6)),
     "default + bundle adjustment over 10 frames (flowvo-ba)": (DEFAULT_WINDOW, BundleSettings()),
     "default + bundle adjustment over 10 frames, its own rotations": (DEFAULT_WINDOW,

@@ -20,9 +20,6 @@ the bundle stage, :mod:`~flowvo.odometry.bundle_window`). ``flowvo-pair`` is the
 
 from __future__ import annotations
 
-from collections import Counter
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from flowvo.camera import KITTI_CAMERA_HEIGHT_M, Camera
@@ -30,6 +27,7 @@ from flowvo.errors import FlowvoError
 from flowvo.geometry import invert_se3
 from flowvo.methods.base import MIN_FLOW_SIDE_PX, REFERENCE_WIDTH_PX, WorkingFrames
 from flowvo.methods.cnn import CnnStep
+from flowvo.methods.geometry_frames import GeometryFlow, GeometryFrame
 from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
 from flowvo.odometry.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.odometry.motion_checks import MotionChecks
@@ -55,6 +53,7 @@ from flowvo.odometry.two_view import (
     textured_points,
     track_points,
 )
+from flowvo.odometry.window_stage import WindowStage, motion_in_metres
 
 DEFAULT_ROAD_FLOW_METHOD = "dis-road"  # DIS down to the working resolution (the presets' road flow, one pyramid
 # level short, made every step 3-6 % short on real KITTI), lighter where that cost nothing (flow.classical)
@@ -80,45 +79,6 @@ ROBUST_SCALE_PX = 0.06  # at the reference width: Cauchy scale of the robust ref
 # scored 0.95 % there but spread the real clips wider over the working widths (06: 1.51x)
 
 
-@dataclass(frozen=True)
-class GeometryFrame:
-    """A working frame of the default method with its textured points, the tracks of the previous frame's
-    textured points into it, and ``continued_next``: where the previous frame's tracks (its
-    ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per frame, in order,
-    in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks`` tracked over many
-    frames (:mod:`flowvo.odometry.landmark_tracks`); pixels of the (distorted) working frame."""
-
-    image: np.ndarray
-    textured_px: np.ndarray
-    tracked_prev: np.ndarray
-    tracked_next: np.ndarray
-    continued_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    continued_next: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
-    landmarks: Landmarks | None = None
-
-
-@dataclass(frozen=True)
-class GeometryFlow:
-    """What the default method measures between two working frames, in undistorted pixels: ``motion_prev``
-    -> ``motion_next`` (M, 2) tracked textured points for the rotation and translation direction, and
-    ``road_prev`` -> ``road_next`` (R, 2) road-band points that stay in view, moved by the dense flow of the road crop
-    from the road key frame (the previous frame, or an earlier one while the road moves little) to the
-    current one, with ``key_prev`` -> ``key_next`` the key frame's textured points tracked into the current
-    frame (None when the key frame is the previous frame), and ``rotation_key_prev`` -> ``rotation_key_next`` the
-    rotation key frame's (:mod:`flowvo.odometry.rotation_key`; None when the step's rotation is measured from the
-    previous frame)."""
-
-    motion_prev: np.ndarray
-    motion_next: np.ndarray
-    road_prev: np.ndarray
-    road_next: np.ndarray
-    current: GeometryFrame
-    key_prev: np.ndarray | None = None
-    key_next: np.ndarray | None = None
-    rotation_key_prev: np.ndarray | None = None
-    rotation_key_next: np.ndarray | None = None
-
-
 class FlowGeometryStep(WorkingFrames):
     """The default method (see the module docstring); with a ``fallback`` network it is ``flowvo``, without
     ``flowvo-geometry``. Its stages: :class:`RoadFlow` (the road's dense flow), :class:`RoadKeyFrame` (where that
@@ -139,6 +99,7 @@ class FlowGeometryStep(WorkingFrames):
                 "flowvo" if fallback else "flowvo-geometry")
         self.window = window
         self.bundle = None if bundle is None else BundleWindow(self.K, bundle)  # behind the scale window (flowvo-ba)
+        self.stage: WindowStage | None = None  # the window stage (set below, once the unit is known; None per pair)
         self.latency_frames = (window.latency_frames if window else 0) + \
             (self.bundle.latency_frames if self.bundle else 0)
         self.label = (f"{name} ({flow_method} road flow, geometry" + (", network fallback" if fallback else "")
@@ -147,7 +108,6 @@ class FlowGeometryStep(WorkingFrames):
         scale = self.working_hw[1] / REFERENCE_WIDTH_PX
         self.landmark_tracker = None if self.bundle is None else \
             LandmarkTracker(SPACING_PX * scale, RETURN_PX * scale, AGREE_PX * scale)
-        self._landmark_views: dict[float, Landmarks] = {}  # undistorted, by frame time, until the bundle takes them
         if fallback is not None and (fallback.network.stack != 1 or fallback.working_hw != self.working_hw):
             raise FlowvoError("the fallback network must take one flow field at the default method's frame size")
         self.fallback = fallback
@@ -184,7 +144,8 @@ class FlowGeometryStep(WorkingFrames):
         self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M,
                                                                   BASELINE_PX * scale)
         self.road_too_fast_steps = 0  # road lengths the window was not given: faster than a car could have driven
-        self._records_m: list[StepRecord] = []  # the window's records in metres, as far as converted
+        if window is not None:
+            self.stage = WindowStage(window, self.bundle, self.metres_per_unit)
         self.dis_reach_px = DIS_REACH_PX * scale
         self.min_parallax_px = MIN_PARALLAX_PX * scale
         self.last_motion = np.eye(4)
@@ -260,7 +221,7 @@ class FlowGeometryStep(WorkingFrames):
         # a car too fast to have stopped, with only distant scenery in view, is degenerate too
         fit = None if still else self._essential(flow.motion_prev, flow.motion_next)
         if fit is None:
-            return self._in_metres(self._keep_last_motion(dt_s))
+            return motion_in_metres(self._keep_last_motion(dt_s), self.metres_per_unit)
         road_key_fit = None if span.from_previous else self._essential(flow.key_prev, flow.key_next)
         rotation_key_fit = None if flow.rotation_key_prev is None else road_key_fit \
             if flow.rotation_key_prev is flow.key_prev else self._essential(flow.rotation_key_prev,
@@ -289,15 +250,7 @@ class FlowGeometryStep(WorkingFrames):
                             near_px)
         if self.window is not None:
             self._record_step(times_s, span, fit, step_m, road_m, network_m, last_step, flow)
-        return self._in_metres(self.last_motion)
-
-    def _in_metres(self, motion: np.ndarray) -> np.ndarray:
-        """A motion in the method's units (KITTI camera heights) with its translation in metres."""
-        if self.metres_per_unit == 1.0:
-            return motion
-        scaled = motion.copy()
-        scaled[:3, 3] *= self.metres_per_unit
-        return scaled
+        return motion_in_metres(self.last_motion, self.metres_per_unit)
 
     def _looks_still(self, flow: GeometryFlow, road_step_px: float) -> bool:
         """Whether the road (``road_step_px``: its median motion per step, working pixels) and the tracked
@@ -350,9 +303,8 @@ class FlowGeometryStep(WorkingFrames):
         """``flowvo-ba``: the frames' landmark tracks, undistorted, until the bundle stage takes them."""
         if self.bundle is None:
             return
-        if not self.bundle.started and not self._landmark_views:  # the drive's first frame
-            self._landmark_views[previous_s] = self._undistorted_landmarks(previous)
-        self._landmark_views[time_s] = self._undistorted_landmarks(current)
+        first = None if self.bundle.started else (previous_s, self._undistorted_landmarks(previous))
+        self.stage.keep_landmarks(first, (time_s, self._undistorted_landmarks(current)))
 
     def _essential(self, points_prev: np.ndarray, points_next: np.ndarray) -> EssentialMotion | None:
         """The motion up to scale from undistorted tracks (N, 2): USAC's essential fit, refitted robustly over its
@@ -380,60 +332,28 @@ class FlowGeometryStep(WorkingFrames):
 
     def refine(self, time_s: float, motion: np.ndarray, measured: StepScale | None
                ) -> list[tuple[float, np.ndarray]]:
-        """The window stage: the step ending at ``time_s`` (``motion`` and what :meth:`measured` gave for it)
-        goes into the scale window; the motions now final come back, ``latency_frames`` late (per pair: at
-        once; ``flowvo-ba``: then through the bundle stage, ``bundle.latency_frames`` later)."""
-        if self.window is None:
-            return [(time_s, motion)]
-        return self._all_in_metres(self._bundled(self.window.push(time_s, measured)))
+        """The window stage (:class:`WindowStage`): the step ending at ``time_s`` (``motion`` and what
+        :meth:`measured` gave for it) goes into the scale window; the motions now final come back in metres,
+        ``latency_frames`` late (per pair: at once)."""
+        return [(time_s, motion)] if self.stage is None else self.stage.push(time_s, measured)
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
         """The motions still in the window (and the bundle stage) at the end of the drive."""
-        if self.window is None:
-            return []
-        final = self._bundled(self.window.flush())
-        return self._all_in_metres(final if self.bundle is None else final + self.bundle.flush())
-
-    def _all_in_metres(self, motions: list[tuple[float, np.ndarray]]) -> list[tuple[float, np.ndarray]]:
-        """Final motions (time, ``T_prev_cur``) in the method's units with their translations in metres."""
-        return [(time_s, self._in_metres(motion)) for time_s, motion in motions]
-
-    def _bundled(self, final: list[tuple[float, np.ndarray]]) -> list[tuple[float, np.ndarray]]:
-        """The scale window's ``final`` motions through the bundle stage, each step's length sigma from the
-        window's records."""
-        if self.bundle is None or not final:
-            return final
-        records = self.window.records[len(self.window.records) - len(final):]
-        bundled = []
-        for (time_s, motion), record in zip(final, records, strict=True):
-            if not self.bundle.started:
-                first_time_s = min(self._landmark_views)
-                bundled += self.bundle.push(first_time_s, None, *self._landmark_views.pop(first_time_s))
-            bundled += self.bundle.push(time_s, motion, *self._landmark_views.pop(time_s), record.log_sigma)
-        return bundled
+        return [] if self.stage is None else self.stage.flush()
 
     def step_records(self) -> list[StepRecord] | None:
         """What became of each final step so far (the window's records, lengths in metres; None per pair)."""
-        if self.window is None:
-            return None
-        if self.metres_per_unit == 1.0:
-            return self.window.records
-        self._records_m += [record._replace(length_m=record.length_m * self.metres_per_unit)
-                            for record in self.window.records[len(self._records_m):]]
-        return self._records_m
+        return None if self.stage is None else self.stage.records()
 
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
         planes fared (:class:`RoadPlaneTally`), how many steps at speed took the last direction of travel
         instead of the fit's (:mod:`flowvo.odometry.travel_direction`), how many took the last yaw rate instead of the
         fit's (:mod:`flowvo.odometry.yaw_rate`), how many steps' rotations were measured from an earlier key frame
-        (:mod:`flowvo.odometry.rotation_key`), the window's latency (frames: how late each motion is final), how many
-        steps each kind of measurement reached, the median standard deviation of a step's log length and how
-        many moving steps no measurement of the scale reached (:class:`StepRecord`), how many cells of the road grid
-        and of the tracked points stood still at the end (a bonnet: :mod:`flowvo.odometry.still_regions`), how many
-        measured speeds
-        were refused as faster than a car could have driven (``speed_limit``: the limit is 45 m/s for a camera
-        1.65 m high, in proportion to the height, and lower soon after a standstill)."""
+        (:mod:`flowvo.odometry.rotation_key`), how many cells of the road grid and of the tracked points stood still
+        at the end (a bonnet: :mod:`flowvo.odometry.still_regions`), how many measured speeds were refused as faster
+        than a car could have driven (``speed_limit``: 45 m/s for a camera 1.65 m high, in proportion to the height,
+        lower soon after a standstill), and the window stage's record (:meth:`WindowStage.summary`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_length.tally.record()
         kept.update(self.checks.summary())
@@ -441,16 +361,7 @@ class FlowGeometryStep(WorkingFrames):
                                  "track_cells": self.still_tracks.still_cells}
         kept["speed_limit"] = {"max_speed_mps": self.speed.max_speed_mps * self.metres_per_unit,
                                "refused_measurements": self.speed.implausible_measurements + self.road_too_fast_steps}
-        if self.window is not None:
-            records = self.window.records
-            sigmas = [record.log_sigma for record in records if record.log_sigma is not None]
-            kept["scale_window"] = {"latency_frames": self.window.latency_frames, "window_s": self.window.window_s,
-                                    "steps_measured_by": dict(Counter(record.measured_by for record in records)),
-                                    "median_length_log_sigma": float(np.median(sigmas)) if sigmas else None,
-                                    "unscaled_steps": sum(record.unscaled for record in records)}
-        if self.bundle is not None:
-            kept["bundle"] = {"latency_frames": self.bundle.latency_frames, "frames": self.bundle.frames,
-                              "every": self.bundle.every, "solves": self.bundle.solves,
-                              "dropped_observations": self.bundle.dropped_observations}
+        if self.stage is not None:
+            kept.update(self.stage.summary())
         return kept
 

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import NamedTuple
@@ -247,14 +248,13 @@ class ScaleWindow:
     final; ``flush`` at the end of the drive."""
 
     def __init__(self, latency_frames: int = LATENCY_FRAMES, window_s: float = WINDOW_S, ratios: bool = True,
-                 marginalise: bool = True, solver: str = "cholesky") -> None:
+                 marginalise: bool = True, solver: Callable[..., np.ndarray] | None = None) -> None:
         self.latency_frames = latency_frames
         self.window_s = window_s
         self.ratios = ratios  # False: the road lengths alone, averaged (for the ablation)
         self.marginalise = marginalise  # False: steps that leave the window are forgotten (for the ablation)
-        if solver not in ("cholesky", "scipy"):
-            raise ValueError(f"unknown window solver {solver!r}")
-        self.solver = solver  # scipy: SciPy's least_squares, for the ablation
+        self.solver = solver  # another solver of robust_log_lengths's measurements (the ablation's SciPy one,
+        # flowvo.odometry.scale_window_scipy.scipy_log_lengths); None: the window's own
         self._steps: deque[tuple[float, StepScale]] = deque()  # the window: emitted steps, then pending ones
         self._pending = 0
         self._prior: tuple[float, float] | None = None  # (log length, sigma) of the window's first step, from the
@@ -292,10 +292,8 @@ class ScaleWindow:
             return []
         links, absolutes, sums = self._measurements()
         problem = _WindowProblem(links, absolutes, len(self._steps), sums)  # one per solve, sigmas included
-        if self.solver == "scipy":
-            from flowvo.odometry.scale_window_scipy import scipy_log_lengths
-        log_lengths = _robust_solution(problem) if self.solver == "cholesky" else \
-            scipy_log_lengths(links, absolutes, len(self._steps), sums=sums)  # the ablation's solver
+        log_lengths = _robust_solution(problem) if self.solver is None else \
+            self.solver(links, absolutes, len(self._steps), sums=sums)
         measured = [k for k, _, _ in absolutes] + [last for _, last, _, _ in sums]
         anchored = self._anchored(links, measured)
         lengths = np.where(anchored, np.exp(log_lengths), [step.pair_m for _, step in self._steps])

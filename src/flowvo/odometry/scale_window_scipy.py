@@ -1,5 +1,6 @@
 """The scale window's robust fit by SciPy's ``least_squares``: the well-kept solver the window's own iterations
-(:func:`flowvo.odometry.scale_window.robust_log_lengths`) are measured against (``ScaleWindow(solver="scipy")``).
+(:func:`flowvo.odometry.scale_window.robust_log_lengths`) are measured against
+(``ScaleWindow(solver=scipy_log_lengths)``).
 Log lengths of steps in metres' logs; sigmas of logs."""
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ def scipy_log_lengths(links: list[tuple[int, float, float]], absolutes: list[tup
                       sums: list[tuple[int, int, float, float]] = ()) -> np.ndarray:
     """The same robust fit as :func:`robust_log_lengths` (same measurements, Huber then Cauchy of scale
     ``threshold`` sigmas) by SciPy's ``least_squares`` (trust-region reflective, analytic Jacobian): the
-    well-kept solver the window's own iterations are measured against (``ScaleWindow(solver="scipy")``)."""
+    well-kept solver the window's own iterations are measured against (``ScaleWindow(solver=scipy_log_lengths)``)."""
     from scipy.optimize import least_squares
 
     link_k, link_value, link_sigma = measurement_columns(links)
