@@ -232,6 +232,7 @@ class FlowGeometryStep(WorkingFrames):
         key_fit = fit if span.from_previous else road_key_fit
         self.road_length.advance(fit.R, dt_s)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
+        road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
         self.last_view = (time_s, flow, fit, plane)
         self.road_key.end(span, time_s, plane, road_moved_px, (key_fit, fit), road_m, self.speed.last_speed_mps)
         if road_m is not None and road_m > self.speed.max_speed_at(time_s) * (time_s - span.start_s):
@@ -246,8 +247,12 @@ class FlowGeometryStep(WorkingFrames):
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
         near_px = 0.0 if plane is None else near_road_parallax_px(flow.road_prev, flow.road_next, self.K,
                                                                   key_fit.R) / span.steps
-        self.road_key.slide(flow.current, time_s, invert_se3(self.last_motion), self.road_length.normal.normal,
-                            near_px)
+        # the step's length for the sliding key frame's prediction from the road's share of it where there is one: the
+        # warp DIS sees must not depend on the timestamps' last bits (the speed prior's length does: a bag's stamps
+        # against times.txt moved a drive's poses by 8e-4)
+        slide_m = step_m if road_share_m is None else road_share_m
+        self.road_key.slide(flow.current, time_s, se3_next_prev(fit.R, fit.t_dir * slide_m),
+                            self.road_length.normal.normal, near_px)
         if self.window is not None:
             self._record_step(times_s, span, fit, step_m, road_m, network_m, last_step, flow)
         return motion_in_metres(self.last_motion, self.metres_per_unit)
