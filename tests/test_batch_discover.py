@@ -104,6 +104,7 @@ def test_a_manifest_selects_sequences_names_drives_and_carries_their_settings(tm
     kitti(tmp_path / "kitti", "00", "01")
     touch(tmp_path / "v" / "cam.mp4")
     calib = touch(tmp_path / "calib.txt")
+    calib.write_text("P0: 700 0 600 0 0 700 180 0 0 0 1 0\n")  # the manifest reads it, as --calib would
     manifest = tmp_path / "fleet.csv"
     manifest.write_text("path,sequence,name,method,camera_height_m,calib\n"
                         "kitti,01,,classical,,\n"

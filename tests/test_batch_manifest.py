@@ -50,7 +50,9 @@ def test_json_lines_take_numbers_text_and_null(place):
     (".jsonl", '{"path": "drives/a.mp4", "fx": true}\n', r"m.jsonl:1: fx must be a number"),
     (".csv", "path,method\ndrives/a.mp4,magic\n", r"m.csv:2: method 'magic' is not one of"),
     (".csv", "path,kind\ndrives/a.mp4,lidar\n", r"m.csv:2: kind 'lidar' is not one of"),
-    (".csv", "path,sequence,fx\ndrives,00,700\n", r"m.csv:2: fx: a KITTI sequence has its own calib.txt"),
+    (".csv", "path,sequence,fx\ndrives,00,700\n", r"m.csv:2: fx: fx, fy, cx, cy go together; missing fy, cx, cy"),
+    (".csv", "path,camera_height_m\ndrives/a.mp4,100\n", r"m.csv:2: camera_height_m: camera height must be .* "
+                                                          r"got 100.0"),
     (".csv", "path,name\ndrives/a.mp4,../up\n", r"m.csv:2: drive name '../up' is a path"),
     (".csv", "path\ndrives/a.mp4,extra\n", r"m.csv:2: 2 fields for the header's 1 columns"),
     (".csv", "path\n\n", r"m.csv: manifest lists no drives"),

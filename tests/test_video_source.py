@@ -64,12 +64,18 @@ def test_empty_or_text_file_is_refused(tmp_path, content):
         open_video_source(tmp_path / "clip.avi")
 
 
-def test_truncated_file_raises_where_decoding_stops(video):
-    path, _ = video
+def test_truncated_file_ends_at_its_last_good_frame_with_a_warning(video, caplog):
+    path, frames = video
     path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])
     source = open_video_source(path)  # the first frames still decode
-    with pytest.raises(FlowvoError, match=r"my drive \(1\).avi: decoding stopped after \d of the 12 frames"):
-        list(source.frames())
+    with caplog.at_level(logging.WARNING, logger="flowvo.sources.video"):
+        read = list(source.frames())
+    assert 1 <= len(read) < 12
+    np.testing.assert_array_equal(read[-1][1], cv2.cvtColor(frames[len(read) - 1], cv2.COLOR_BGR2GRAY))
+    assert len(source.warnings) == 1 and source.warnings == [caplog.records[0].getMessage().removeprefix("warning: ")]
+    assert f"my drive (1).avi: decoding stopped after {len(read)} of the 12 frames" in source.warnings[0]
+    list(source.frames())
+    assert len(source.warnings) == 1  # each read says it once
 
 
 def test_missing_intrinsics_of_a_video_too_small_to_estimate_them_are_refused(video):

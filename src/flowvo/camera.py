@@ -26,6 +26,8 @@ MIN_FOCAL_PX = 1.0  # below a pixel no frame is imaged
 MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000 px frame: no odometry
 MAX_CAMERA_HEIGHT_M = 10.0  # a camera on a truck cab is ~3 m; beyond 10 m no road scale makes sense
 MAX_CAMERA_PITCH_DEG = 30.0  # a camera looking further down sees little but the bonnet and the road at its feet
+LENS_ROUND_TRIP_PX = 0.5  # a frame pixel undistorted and distorted again must land this close to itself
+MAX_LENS_STRETCH = 3.0  # the most a lens model may magnify the image radially, relative to its centre (1)
 
 # model name -> accepted coefficient counts
 DISTORTION_MODELS: dict[str, tuple[int, ...]] = {
@@ -161,13 +163,15 @@ class Camera:
     ``distortion`` of its lens, its ``height_m`` above the road (metres; None: not known, KITTI's 1.65 m is
     then assumed), where the intrinsics came from (``source``, one of :data:`CAMERA_SOURCES`) and
     ``pitch_deg``, how far its optical axis points below the road's plane (degrees, down positive; 0: mounted
-    level, as KITTI's)."""
+    level, as KITTI's). ``scaled_from_hw``: (height, width) of the images a calibration file was made at, when
+    the frames are another size of the same aspect ratio and the intrinsics were scaled to them; else None."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion = field(default=NO_DISTORTION)
     height_m: float | None = None
     source: str = "flags"
     pitch_deg: float = 0.0
+    scaled_from_hw: tuple[int, int] | None = None  # the calibration's image size when the frames' differs
 
     @property
     def K(self) -> np.ndarray:
@@ -187,7 +191,7 @@ class Camera:
     def scaled(self, scale_x: float, scale_y: float) -> Camera:
         """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, pitch unchanged)."""
         return Camera(self.intrinsics.scaled(scale_x, scale_y), self.distortion, self.height_m, self.source,
-                      self.pitch_deg)
+                      self.pitch_deg, self.scaled_from_hw)
 
     def record(self) -> dict:
         """The camera as ``run.json`` records it."""
@@ -195,7 +199,9 @@ class Camera:
         return {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion_model": self.distortion.model,
                 "distortion": list(self.distortion.coefficients), "camera_height_m": self.camera_height_m,
                 "camera_height_given": self.height_m is not None, "camera_pitch_deg": self.pitch_deg,
-                "source": self.source}
+                "source": self.source,
+                **({} if self.scaled_from_hw is None else
+                   {"scaled_from_image_size": [self.scaled_from_hw[1], self.scaled_from_hw[0]]})}
 
 
 def check_camera_height(height_m: float, where: str | None = None) -> float:
@@ -236,3 +242,56 @@ def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int
         if not (0 <= intrinsics.cx < w and 0 <= intrinsics.cy < h):
             raise FlowvoError(f"principal point ({intrinsics.cx}, {intrinsics.cy}) lies outside the {w}x{h} image",
                               where)
+
+
+def _border_and_grid_px(image_size_hw: tuple[int, int], per_side: int = 33, grid: int = 9) -> np.ndarray:
+    """Pixel centres (N, 2) along the frame's four edges (corners included) and on a coarse grid inside."""
+    h, w = image_size_hw
+    xs, ys = np.linspace(0.0, w - 1.0, per_side), np.linspace(0.0, h - 1.0, per_side)
+    edges = [np.c_[xs, np.zeros(per_side)], np.c_[xs, np.full(per_side, h - 1.0)],
+             np.c_[np.zeros(per_side), ys], np.c_[np.full(per_side, w - 1.0), ys]]
+    gx, gy = np.meshgrid(np.linspace(0.0, w - 1.0, grid), np.linspace(0.0, h - 1.0, grid))
+    return np.concatenate(edges + [np.c_[gx.ravel(), gy.ravel()]])
+
+
+def check_distortion(intrinsics: CameraIntrinsics, distortion: LensDistortion, image_size_hw: tuple[int, int],
+                     where: str | None) -> None:
+    """Refuse a lens model that cannot be undone over the frame (height, width): every pixel must undistort
+    to an ideal pixel that the model maps back onto it (within :data:`LENS_ROUND_TRIP_PX`), and along the
+    ray from the principal point to any such ideal pixel the distorted image must move steadily outwards (a
+    lens model that folds back, such as k1 -5 on KITTI's frames, images two directions onto one pixel) and be
+    magnified radially at most :data:`MAX_LENS_STRETCH`-fold (k1 80 or 1e6 on KITTI's frames squeeze the whole
+    view into a few degrees). Models that fail this gave standstills, unmeasured steps and wrong lengths."""
+    if distortion.is_none:
+        return
+    K = intrinsics.K
+    pixels = _border_and_grid_px(image_size_hw)
+    ideal = undistort_points(pixels, K, distortion).astype(np.float64)
+    back = distort_points(ideal, K, distortion) if np.all(np.isfinite(ideal)) else np.full_like(pixels, np.nan)
+    miss = np.linalg.norm(back - pixels, axis=1)
+    miss[~np.isfinite(miss)] = np.inf
+    h, w = image_size_hw
+    model = f"{distortion.model} {' '.join(f'{c:g}' for c in distortion.coefficients)}"
+    if miss.max() > LENS_ROUND_TRIP_PX:
+        x, y = pixels[int(np.argmax(miss))]
+        raise FlowvoError(f"lens distortion {model} cannot be undone over the {w}x{h} frames: pixel ({x:.0f}, "
+                          f"{y:.0f}) undistorts to a point the model images "
+                          f"{'elsewhere' if not np.isfinite(miss.max()) else f'{miss.max():.1f} px away'} (check "
+                          "the coefficients, their order and the model)", where)
+    centre = np.array([intrinsics.cx, intrinsics.cy])
+    fractions = np.linspace(0.0, 1.0, 65)
+    along = centre + fractions[None, :, None] * (ideal - centre)[:, None, :]  # (N, 65, 2) ideal pixels on each ray
+    imaged = distort_points(along.reshape(-1, 2), K, distortion).reshape(along.shape)
+    ideal_step = np.diff(np.linalg.norm(along - centre, axis=2), axis=1)
+    stretch = np.diff(np.linalg.norm(imaged - centre, axis=2), axis=1) / np.maximum(ideal_step, 1e-12)
+    stretch[ideal_step < 1e-3] = 1.0  # rays to pixels at the principal point have no length
+    worst = np.argmin(stretch.min(axis=1)) if stretch.min() <= 0 else np.argmax(stretch.max(axis=1))
+    x, y = pixels[int(worst)]
+    if stretch.min() <= 0:
+        raise FlowvoError(f"lens distortion {model} folds back within the {w}x{h} frames: towards pixel ({x:.0f}, "
+                          f"{y:.0f}) the image stops moving outwards, so two directions meet on one pixel (check the "
+                          "coefficients, their order and the model)", where)
+    if stretch.max() > MAX_LENS_STRETCH:
+        raise FlowvoError(f"lens distortion {model} stretches the image {stretch.max():.3g}-fold towards pixel "
+                          f"({x:.0f}, {y:.0f}) of the {w}x{h} frames (a lens stretches it at most "
+                          f"{MAX_LENS_STRETCH:g}-fold; check the coefficients, their order and the model)", where)

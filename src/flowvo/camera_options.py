@@ -2,10 +2,16 @@
 ``--camera-height``, ``--camera-pitch``) and what the drive itself says (KITTI calib.txt, a ROS CameraInfo and
 /tf_static).
 
-Precedence: intrinsics from ``--calib`` or ``--fx --fy --cx --cy`` replace the drive's; distortion from
+Precedence: intrinsics from ``--calib`` or ``--fx --fy --cx --cy`` replace the drive's (a KITTI calib.txt
+too); distortion from
 ``--dist`` replaces the calibration file's, which replaces the drive's; the camera height from
 ``--camera-height``, else the calibration file's, else the drive's, else KITTI's 1.65 m (assumed, said so);
 the pitch likewise from ``--camera-pitch``, the calibration file's, the drive's, else 0 (mounted level).
+
+A calibration file that states its image size (OpenCV and ROS YAML ``image_width``/``image_height``, Kalibr
+``resolution``) is checked against the frames: another size of the same aspect ratio (within a pixel) has
+its intrinsics scaled to the frames (recorded as the camera's ``scaled_from_hw``); another aspect ratio is
+refused. Lens distortion is checked to be undone over the frames (:func:`flowvo.camera.check_distortion`).
 """
 
 from __future__ import annotations
@@ -18,6 +24,7 @@ from flowvo.camera import (
     LensDistortion,
     check_camera_height,
     check_camera_pitch,
+    check_distortion,
     check_intrinsics,
 )
 from flowvo.errors import FlowvoError
@@ -26,7 +33,9 @@ from flowvo.errors import FlowvoError
 @dataclass(frozen=True)
 class GivenCamera:
     """What the user said about the camera; every part optional. ``source``: "calib" or "flags" (for the
-    intrinsics), ``where``: the file or flags to name in errors."""
+    intrinsics), ``where``: the file or flags to name in errors, ``image_size_hw``: (height, width) of the
+    images the calibration file was made at, when it says; ``distortion_where``: where ``distortion`` came
+    from (``--dist`` or the file)."""
 
     intrinsics: CameraIntrinsics | None = None
     distortion: LensDistortion | None = None
@@ -34,6 +43,8 @@ class GivenCamera:
     source: str | None = None
     where: str = "camera flags"
     pitch_deg: float | None = None
+    image_size_hw: tuple[int, int] | None = None
+    distortion_where: str | None = None
 
 
 def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: float | None, cy: float | None,
@@ -45,11 +56,12 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
     if calib is not None and given:
         raise FlowvoError(f"give either --calib or {', '.join(given)}, not both")
     intrinsics, file_distortion, file_height, file_pitch, source, where = None, None, None, None, None, "camera flags"
+    size_hw = None
     if calib is not None:
         from flowvo.calibration.files import read_camera_file
 
         camera_file = read_camera_file(calib)
-        intrinsics, source, where = camera_file.intrinsics, "calib", calib
+        intrinsics, source, where, size_hw = camera_file.intrinsics, "calib", calib, camera_file.image_size_hw
         file_distortion, file_height, file_pitch = camera_file.distortion, camera_file.height_m, camera_file.pitch_deg
     elif given:
         missing = [name for name in numbers if name not in given]
@@ -59,13 +71,18 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
             "--fx/--fy/--cx/--cy"  # type: ignore[arg-type]
     if distortion_model is not None and distortion is None:
         raise FlowvoError("--distortion-model needs --dist K1 K2 ...")
+    distortion_where = None if file_distortion is None else where
     if distortion is not None:
-        file_distortion = LensDistortion(distortion_model or "plumb_bob", tuple(distortion))
+        try:
+            file_distortion = LensDistortion(distortion_model or "plumb_bob", tuple(distortion))
+        except FlowvoError as error:
+            raise FlowvoError(error.message, "--dist") from None
+        distortion_where = "--dist"
     if camera_height_m is not None:
         file_height = check_camera_height(camera_height_m, "--camera-height")
     if camera_pitch_deg is not None:
         file_pitch = check_camera_pitch(camera_pitch_deg, "--camera-pitch")
-    return GivenCamera(intrinsics, file_distortion, file_height, source, where, file_pitch)
+    return GivenCamera(intrinsics, file_distortion, file_height, source, where, file_pitch, size_hw, distortion_where)
 
 
 def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str,
@@ -82,7 +99,26 @@ def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[
     pitch_deg = next((p for p in (given.pitch_deg, drive_pitch_deg, drive.pitch_deg if drive else None)
                       if p is not None), 0.0)
     source = given.source or drive.source  # type: ignore[union-attr]
-    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source, pitch_deg)
+    scaled_from_hw = None
+    if given.intrinsics is not None and given.image_size_hw not in (None, tuple(image_size_hw)):
+        intrinsics, scaled_from_hw = scaled_to_frames(intrinsics, given.image_size_hw, image_size_hw, given.where)
+    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source, pitch_deg, scaled_from_hw)
     check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)
     check_camera_pitch(pitch_deg, where)  # a drive's own (a bag's /tf_static) may be beyond what flowvo handles
+    check_distortion(camera.intrinsics, camera.distortion, image_size_hw,
+                     given.distortion_where if given.distortion is not None else where)
     return camera
+
+
+def scaled_to_frames(intrinsics: CameraIntrinsics, calibrated_hw: tuple[int, int], frames_hw: tuple[int, int],
+                     where: str) -> tuple[CameraIntrinsics, tuple[int, int]]:
+    """Intrinsics calibrated on images of ``calibrated_hw`` (height, width) scaled to frames of ``frames_hw``
+    of the same aspect ratio (within a pixel: 1281x721 is 1280x720's), with the calibration's size; a one-line
+    error naming the calibration ``where`` and both sizes for another aspect ratio (a cropped or another
+    sensor mode, which no scaling makes right)."""
+    (ch, cw), (fh, fw) = calibrated_hw, frames_hw
+    if abs(cw * fh / ch - fw) > 1.0 and abs(ch * fw / cw - fh) > 1.0:
+        raise FlowvoError(f"calibrated on {cw}x{ch} images, the frames are {fw}x{fh}: another aspect ratio (a crop "
+                          "or another sensor mode), so the intrinsics do not apply; calibrate the camera at the "
+                          "frames' size", where)
+    return intrinsics.scaled(fw / cw, fh / ch), (ch, cw)

@@ -26,8 +26,11 @@ def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence
          model: str | Path | None = None, frames: int = DEMO_FRAMES, force: bool = False,
          camera_height_m: float | None = None) -> tuple[Path, list[dict]]:
     """Run the whole product once; returns the report's index.html and the run summaries (default method
-    first). ``force`` replaces the runs and the report of an earlier demo in ``out`` (the rendered drive
-    is reused when it is the same); ``camera_height_m`` overrides the sequence's camera height (metres)."""
+    first). A second demo into the same ``out`` reuses what the first made with the same settings: the
+    rendered drive, and every complete run (:func:`flowvo.batch.done.read_drive_outputs`) of the same drive
+    and options, then writes the report of them again; a run made with other settings (another
+    ``--camera-height``, ``--model``, drive) is refused unless ``force``, which replaces the runs and the
+    report. ``camera_height_m`` overrides the sequence's camera height (metres)."""
     out = Path(out)
     if data is None:
         data, sequence = out / "data", "00"
@@ -41,13 +44,38 @@ def demo(out: str | Path = "runs/demo", data: str | Path | None = None, sequence
     methods = [("flowvo", {}), ("cnn", {"model": str(model) if model else None}), ("classical", {})]
     if has_gt:
         methods.append(("classical", {"classical_scale": "gt"}))
-    runs, folders = [], []
+    runs, folders, reused = [], [], []
     for method, extra in methods:
         folder = out / (method if extra.get("classical_scale") != "gt" else "classical_gt_scale")
-        runs.append(run(RunOptions(out=str(folder), data=str(data), sequence=sequence, method=method, force=force,
-                                   lengths_m=lengths_m, camera_height_m=camera_height_m, **extra)))
+        options = RunOptions(out=str(folder), data=str(data), sequence=sequence, method=method, force=force,
+                             lengths_m=lengths_m, camera_height_m=camera_height_m, **extra)
+        earlier = None if force else earlier_run(options)
+        runs.append(earlier if earlier is not None else run(options))
         folders.append(folder)
-    return write_report(folders, out / "report", force), runs
+        reused.append(earlier is not None)
+    return write_report(folders, out / "report", force or any(reused)), runs
+
+
+def earlier_run(options: RunOptions) -> dict | None:
+    """The run.json of a complete earlier run in ``options.out`` of the same drive with the same options and
+    library versions (it is reused); None when there is none, it is incomplete, or it ran another checkpoint
+    than the packaged one (run.json does not say which: it is run, and refused without ``force``)."""
+    from flowvo.batch.done import read_drive_outputs, recorded_difference
+    from flowvo.batch.spec import processing_settings
+    from flowvo.versions import library_versions
+
+    if options.model is not None:
+        return None
+    try:
+        outputs = read_drive_outputs(options.out)
+    except FlowvoError:
+        return None
+    same_drive = outputs.run.get("data") == str(Path(options.data).resolve()) and \
+        outputs.run.get("sequence") == KittiSequence(options.data, options.sequence).sequence
+    if not same_drive or outputs.run.get("versions") != library_versions() or \
+            recorded_difference(outputs.run, processing_settings(options)) is not None:
+        return None
+    return outputs.run
 
 
 def drive_lengths(gt_positions: np.ndarray) -> tuple[float, ...]:

@@ -1,10 +1,14 @@
-"""A trajectory: camera-to-world poses with the frame index of each pose (frames may be missing)."""
+"""A trajectory: camera-to-world poses with the frame index of each pose (frames may be missing); the least time
+between two frames (seconds)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
+
+MIN_FRAME_INTERVAL_S = 1e-4  # 10,000 frames/s, beyond any camera to drive with: frames closer are a broken
+# clock or seconds taken for another unit, and their times collapse in the TUM file's 9 decimals (from 1970)
 
 
 @dataclass(frozen=True)

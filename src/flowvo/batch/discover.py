@@ -9,12 +9,18 @@ manifest (:mod:`flowvo.batch.manifest`). Under a path, drives are found as follo
 - a file whose suffix is a video's (:data:`VIDEO_SUFFIXES`) or a bag's (``.bag``, ``.mcap``, ``.db3``);
 - any other folder: searched recursively (names starting with '.' and the batch's own output are skipped).
 
-Names: each drive's path relative to the common folder of the inputs (an input folder, the folder of an
-input file, the fixed part of a glob, a manifest's folder), with '__' for '/', the ``sequences`` level of
-a KITTI root dropped, and characters other than letters, digits, '.', '_' and '-' replaced by '_': e.g.
-``day1__cam.mp4`` and ``day2__cam.mp4``, or ``07`` for sequence 07 of an input KITTI root. The names stay
-the same when drives are added under the same inputs, so a nightly rerun resumes. Two different drives
-that would share a name (also when only letter case differs) are refused.
+Names: each drive's path relative to its input's base folder (an input folder, the folder of an input
+file, the fixed part of a glob, a manifest's folder), with '__' for '/', the ``sequences`` level of a KITTI
+root dropped, and characters other than letters, digits, '.', '_' and '-' replaced by '_': e.g.
+``day1__cam.mp4`` under an input folder holding ``day1/cam.mp4``, or ``07`` for sequence 07 of an input
+KITTI root. Inputs whose base folders share their parent (``kitti/`` and ``videos/`` side by side) are
+named from that common folder: ``kitti__07``, ``videos__cam.mp4``. Inputs from apart in the tree name their
+drives from the folder above each base, so ``/home/me/data/kitti_clips`` and ``/tmp/videos`` give
+``kitti_clips__07`` and ``videos__cam.mp4``, not ``home__me__data__kitti_clips__07`` (where that makes two
+drives share a name, from the common folder of all bases). The names stay the same when
+drives are added under the same inputs, so a nightly rerun resumes. Two different drives that would still
+share a name (also when only letter case differs) are refused. Entries that are neither files nor folders
+(FIFOs, sockets, devices, broken links) are skipped while searching, and refused when named as an input.
 """
 
 from __future__ import annotations
@@ -100,7 +106,13 @@ def _expand(text: str) -> tuple[list[Path], Path, bool]:
 
 
 def _search(path: Path, exclude: str | Path | None, where: str, explicit: bool) -> list[_Found]:
-    """Drives at or under ``path``; an ``explicit`` file that is no drive is an error, a found one is skipped."""
+    """Drives at or under ``path``; an ``explicit`` file that is no drive is an error, a found one is skipped
+    (so is anything that is neither a file nor a folder: a FIFO would block its reader for ever)."""
+    if not path.is_file() and not path.is_dir():
+        if explicit:
+            raise FlowvoError(f"{path} is neither a file nor a folder (a FIFO, a socket, a device or a broken "
+                              "link)", where)
+        return []
     if path.is_file():
         suffix = path.suffix.lower()
         if suffix in VIDEO_SUFFIXES:
@@ -193,11 +205,22 @@ def _describe(item: _Found) -> str:
 
 
 def _name(entries: list[tuple[_Found, Path, ManifestLine | None]]) -> list[Drive]:
-    root = Path(os.path.commonpath([str(base) for _, base, _ in entries]))
+    bases = {base for _, base, _ in entries}
+    root = Path(os.path.commonpath([str(base) for base in bases]))
+
+    def named(item: _Found, base: Path, line: ManifestLine | None, from_bases: bool) -> str:
+        if line is not None and line.name is not None:
+            return line.name
+        return drive_name(item.key, (base.parent if base.parent != base else base) if from_bases else root)
+
+    from_bases = any(base != root and base.parent != root for base in bases)  # inputs from apart in the tree
+    if from_bases:
+        names = [named(item, base, line, True).casefold() for item, base, line in entries]
+        from_bases = len(set(names)) == len(names)
     drives: list[Drive] = []
     taken: dict[str, _Found] = {}
-    for item, _, line in entries:
-        name = line.name if line is not None and line.name is not None else drive_name(item.key, root)
+    for item, base, line in entries:
+        name = named(item, base, line, from_bases)
         if name.casefold() in taken:
             other = taken[name.casefold()]
             raise FlowvoError(f"drives {_describe(other)} and {_describe(item)} would both be written to "

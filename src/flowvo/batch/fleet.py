@@ -4,9 +4,16 @@ Layout of ``OUT``: ``drives/NAME/`` (exactly what ``flowvo run`` writes for that
 ``summary.csv``, ``summary.json``, ``index.html``, ``logs/NAME.log`` (tracebacks of unexpected errors).
 
 Resume: a drive whose folder holds a complete result (:mod:`flowvo.batch.done`) made with the same
-settings is kept, not rerun; any other drive is run afresh in its own folder. A complete result made with
-other settings is refused unless ``force`` (which reruns every drive). ``retry_failed`` runs only the
-drives the last summary marks failed.
+settings (those the last summary.json records, and what the drive's run.json records: method, sub-path
+lengths, the camera given) is kept, not rerun; any other drive is run afresh in its own folder. A complete
+result made with other settings is refused unless ``force`` (which reruns every drive). ``retry_failed``
+runs only the drives the last summary marks failed.
+
+``OUT`` is the batch's own: a folder that holds any of the entries a batch writes (:data:`BATCH_ENTRIES`)
+but neither a batch's summary.json nor its lock file (``.flowvo-batch.lock``, which stays after the batch)
+is refused unless ``force`` (they are someone else's: an index.html, a summary.csv). A batch takes its
+lock and writes its summary.json (every drive pending) before any drive runs, so a batch killed at any
+point leaves a folder its rerun recognises.
 """
 
 from __future__ import annotations
@@ -19,9 +26,9 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from flowvo.batch.done import DriveOutputs, read_drive_outputs
+from flowvo.batch.done import DriveOutputs, read_drive_outputs, recorded_difference
 from flowvo.batch.index_page import thumbnail_path, write_index, write_thumbnail
-from flowvo.batch.lock import batch_lock
+from flowvo.batch.lock import LOCK_NAME, batch_lock
 from flowvo.batch.processes import run_in_processes
 from flowvo.batch.record import DriveSummary, summarize
 from flowvo.batch.spec import Drive, check_drive_options, drive_folder, drive_run_options, processing_settings
@@ -29,10 +36,11 @@ from flowvo.batch.summary import batch_totals, read_summary, write_summary
 from flowvo.batch.worker import PRELOAD_MODULES, run_drive
 from flowvo.drive.options import RunOptions
 from flowvo.errors import FlowvoError
-from flowvo.io.outputs import is_inside, prepare_output_dir, validate_name
+from flowvo.io.outputs import check_path_text, is_inside, prepare_output_dir, validate_name
 from flowvo.progress import progress_bar
 
 SUMMARY_EVERY_S = 5.0  # while running, the summary files are rewritten at most this often (and at the end)
+BATCH_ENTRIES = ("summary.json", "summary.csv", "index.html", "drives", "plots", "logs")  # what a batch writes
 
 
 def default_workers() -> int:
@@ -49,12 +57,15 @@ def run_batch(drives: Sequence[Drive], out: str | Path, defaults: RunOptions | N
     ``defaults``: the ``flowvo run`` options of every drive (its ``out`` and source fields are ignored;
     a drive's settings override the rest). A failing drive is a "failed" line, never an exception; the
     summary files are written even when interrupted (KeyboardInterrupt propagates after that). Raises a
-    FlowvoError, with nothing written, for bad arguments, results made with other settings (without
-    ``force``), an unreachable Ray, or another batch running in ``out``.
+    FlowvoError, with nothing written, for bad arguments (an empty ``out``, a file there, a folder holding
+    files a batch writes that are not a batch's, without ``force``), results made with other settings
+    (without ``force``), an unreachable Ray, or another batch running in ``out``.
     """
     start = time.perf_counter()
     defaults = defaults or RunOptions(out="")
-    out = Path(out)
+    out = check_path_text(out, "--out")  # '' would be the current folder
+    if out.exists() and not out.is_dir():
+        raise FlowvoError("--out is a file, expected a folder", out)
     if workers is not None and workers < 1:
         raise FlowvoError(f"--workers must be at least 1, got {workers}")
     options = _checked_options(drives, defaults, out)
@@ -62,6 +73,8 @@ def run_batch(drives: Sequence[Drive], out: str | Path, defaults: RunOptions | N
     previous = read_summary(out) if out.is_dir() else None
     if retry_failed and previous is None:
         raise FlowvoError("--retry-failed: no summary.json of an earlier batch here", out)
+    if previous is None and not force:
+        _refuse_foreign_entries(out)
     plan = _plan(drives, settings, out, previous or {}, retry_failed, force)
     anything_to_run = any(line is None for line in plan.values())
     with _ray_session(ray if anything_to_run else None) as ray_module:
@@ -69,19 +82,33 @@ def run_batch(drives: Sequence[Drive], out: str | Path, defaults: RunOptions | N
         with batch_lock(out):
             rows = {drive.name: plan[drive.name] or summarize(drive, settings[drive.name], "pending")
                     for drive in drives}
+            if ray is None:
+                workers = workers or default_workers()
+            backend = f"ray {ray}" if ray is not None else f"{workers} local worker process(es)"
+            _write(out, rows, 0, start, backend)  # the folder is a batch's from now on, whatever happens next
             _draw_missing_thumbnails(drives, plan, out)
             to_run = [drive for drive in drives if plan[drive.name] is None]
             function = partial(run_drive, defaults=defaults, out=out)
             if ray is None:
-                workers = workers or default_workers()
                 outcomes = run_in_processes(to_run, function, workers, PRELOAD_MODULES)
             else:
                 from flowvo.batch.ray_backend import run_on_ray
 
                 outcomes = run_on_ray(ray_module, to_run, function, workers) if to_run else _no_outcomes()
-            backend = f"ray {ray}" if ray is not None else f"{workers} local worker process(es)"
             _collect(outcomes, len(to_run), rows, settings, out, backend, start)
             return list(rows.values())
+
+
+def _refuse_foreign_entries(out: Path) -> None:
+    """Refuse an ``out`` that holds entries a batch would write but was never a batch's (no summary.json, no
+    batch lock file): someone else's."""
+    if not out.is_dir() or (out / LOCK_NAME).is_file():
+        return
+    foreign = [name for name in BATCH_ENTRIES if (out / name).exists() or (out / name).is_symlink()]
+    if foreign:
+        raise FlowvoError(f"holds {', '.join(foreign)} that no flowvo batch wrote here (no summary.json, no "
+                          f"{LOCK_NAME}), and a batch would overwrite them; choose another --out, or pass --force to "
+                          "replace them", out)
 
 
 def _checked_options(drives: Sequence[Drive], defaults: RunOptions, out: Path) -> dict[str, RunOptions]:
@@ -115,6 +142,8 @@ def _plan(drives: Sequence[Drive], all_settings: dict[str, dict[str, Any]], out:
         if outputs is not None:
             if earlier is not None and earlier.settings and earlier.settings != settings:
                 changed.append(f"{drive.name}: {_first_difference(earlier.settings, settings)}")
+            elif (recorded := recorded_difference(outputs.run, settings)) is not None:
+                changed.append(f"{drive.name}: {recorded} (its run.json)")
             kept = earlier if earlier is not None and earlier.status == "ok" else None
             plan[drive.name] = summarize(drive, settings, "ok", outputs=outputs, reused=True,
                                          wall_s=kept.wall_s if kept else None,

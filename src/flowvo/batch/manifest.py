@@ -8,14 +8,16 @@ Columns (only ``path`` is required; an empty cell or JSON null means "the batch 
 - ``kind``: kitti, video or bag (default: from the path);
 - ``sequence``: with a KITTI dataset root, that sequence only;
 - ``name``: the drive's output name (default: from its path);
-- ``calib`` (a KITTI calib.txt, relative to the manifest) or ``fx``, ``fy``, ``cx``, ``cy`` (pixels):
-  intrinsics of a video or bag;
+- ``calib`` (any calibration file ``--calib`` reads, relative to the manifest) or ``fx``, ``fy``, ``cx``,
+  ``cy`` (pixels): the drive's intrinsics (for a KITTI sequence they replace its calib.txt's, as ``--calib``
+  does);
 - ``camera_height_m``: camera height above the road in metres;
 - ``method``: one of ``flowvo run``'s methods;
 - ``topic``, ``camera_info_topic``: a bag's image and CameraInfo topics.
 
-Any other column, a path that does not exist, or a value that is not what its column expects is an error
-naming the manifest and the line.
+Any other column, a path that does not exist, or a value that is not what its column expects (an
+unreadable calibration file, partial intrinsics, a camera height beyond 10 m) is an error naming the
+manifest, the line and the column.
 """
 
 from __future__ import annotations
@@ -132,13 +134,42 @@ def _line(record: dict[str, Any], manifest: Path, number: int) -> ManifestLine:
             validate_name(values["name"], "drive")
         except FlowvoError as error:
             raise FlowvoError(error.message, manifest, number) from None
-    if values["kind"] == "kitti" or values["sequence"] is not None:
-        given = [name for name in ("calib", "fx", "fy", "cx", "cy") if values[name] is not None]
-        if given:
-            raise FlowvoError(f"{', '.join(given)}: a KITTI sequence has its own calib.txt", manifest, number)
+    _check_camera(values, manifest, number)
     settings = {k: v for k, v in values.items() if k not in ("path", "kind", "sequence", "name") and v is not None}
     return ManifestLine(drive_path, values["kind"], values["sequence"], values["name"], settings,
                         f"{manifest}:{number}")
+
+
+def _check_camera(values: dict[str, Any], manifest: Path, number: int) -> None:
+    """The line's camera columns as ``flowvo run`` would take them: a readable calibration file or all four
+    intrinsics (not both), focal lengths in range, a plausible camera height; errors name the column."""
+    from flowvo.calibration.files import read_camera_file
+    from flowvo.camera import CameraIntrinsics, check_camera_height, check_intrinsics
+
+    numbers = [name for name in ("fx", "fy", "cx", "cy") if values[name] is not None]
+    try:
+        if values["calib"] is not None and numbers:
+            raise FlowvoError(f"calib, {', '.join(numbers)}: give either a calibration file or fx, fy, cx, cy")
+        if numbers and len(numbers) < 4:
+            missing = [name for name in ("fx", "fy", "cx", "cy") if name not in numbers]
+            raise FlowvoError(f"{', '.join(numbers)}: fx, fy, cx, cy go together; missing {', '.join(missing)}")
+        if numbers:
+            try:
+                check_intrinsics(CameraIntrinsics(*(values[name] for name in ("fx", "fy", "cx", "cy"))), None, None)
+            except FlowvoError as error:
+                raise FlowvoError(f"fx, fy, cx, cy: {error.message}") from None
+        if values["calib"] is not None:
+            try:
+                read_camera_file(values["calib"])
+            except FlowvoError as error:
+                raise FlowvoError(f"calib: {error}") from None
+        if values["camera_height_m"] is not None:
+            try:
+                check_camera_height(values["camera_height_m"])
+            except FlowvoError as error:
+                raise FlowvoError(f"camera_height_m: {error.message}") from None
+    except FlowvoError as error:
+        raise FlowvoError(error.message, manifest, number) from None
 
 
 def _value(name: str, raw: Any, manifest: Path, number: int) -> Any:

@@ -48,9 +48,9 @@ def drive_folder(out: str | Path, drive: Drive) -> Path:
 
 def drive_run_options(drive: Drive, defaults: RunOptions, out: str | Path) -> RunOptions:
     """The options ``flowvo run`` gets for ``drive``: ``defaults`` with its source, its output folder and
-    its settings, its stages in one thread (a batch runs one drive per core). A KITTI sequence takes its
-    intrinsics from its calib.txt (the defaults' are for videos and bags); intrinsics given for the drive
-    replace the defaults' whole (a calib file or the four numbers).
+    its settings, its stages in one thread (a batch runs one drive per core). Intrinsics given for the
+    drive (a manifest's calib file or four numbers) replace the defaults' whole; either replaces the drive's
+    own, a KITTI sequence's calib.txt too, as in ``flowvo run``.
     """
     unknown = sorted(set(drive.settings) - set(SETTING_FIELDS))
     if unknown:
@@ -60,7 +60,7 @@ def drive_run_options(drive: Drive, defaults: RunOptions, out: str | Path) -> Ru
     if drive.kind not in source:
         raise FlowvoError(f"drive {drive.name}: kind {drive.kind!r} is not one of {', '.join(DRIVE_KINDS)}")
     intrinsics: dict[str, Any] = {}
-    if drive.kind == "kitti" or any(drive.settings.get(name) is not None for name in INTRINSICS_FIELDS):
+    if any(drive.settings.get(name) is not None for name in INTRINSICS_FIELDS):
         intrinsics = dict.fromkeys(INTRINSICS_FIELDS)
     fields: dict[str, Any] = {"out": str(drive_folder(out, drive)), "force": False, "overlap_stages": False,
                               "data": None, "sequence": None, "video": None, "bag": None}
@@ -79,15 +79,14 @@ def processing_settings(options: RunOptions) -> dict[str, Any]:
 
 def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: dict[tuple, None]) -> None:
     """Refuse, before anything runs, a drive its options cannot run: a bag without an image topic, an
-    unreadable calibration file or invalid camera numbers (a video without intrinsics has its focal length
-    estimated when it runs). ``intrinsics_checked`` remembers the intrinsics already read (a fleet shares a
-    few calibration files)."""
+    unreadable calibration file or invalid camera numbers, for every kind of drive (a video without
+    intrinsics has its focal length estimated when it runs; what needs the frames, such as a calibration's
+    image size or a lens model over them, is checked when the drive runs). ``intrinsics_checked``
+    remembers the camera options already checked (a fleet shares a few calibration files)."""
     from flowvo.camera_options import given_camera
 
     if drive.kind == "bag" and options.topic is None:
         raise FlowvoError(f"drive {drive.name} is a bag: give --topic IMAGE_TOPIC (or a 'topic' manifest column)")
-    if drive.kind == "kitti":
-        return
     given = (options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
              options.distortion_model, options.camera_height_m, options.camera_pitch_deg)
     if given not in intrinsics_checked:

@@ -7,6 +7,7 @@ exception's traceback also goes to ``OUT/logs/NAME.log``).
 
 from __future__ import annotations
 
+import logging
 import os
 import resource
 import shutil
@@ -38,6 +39,9 @@ def run_drive(drive: Drive, defaults: RunOptions, out: str | Path) -> DriveSumma
 
     limit_threads()
     set_progress_enabled(False)
+    package_log = logging.getLogger("flowvo")  # warnings go to run.json and the summary, not onto the terminal
+    if not any(isinstance(handler, logging.NullHandler) for handler in package_log.handlers):  # from every worker
+        package_log.addHandler(logging.NullHandler())
     options = drive_run_options(drive, defaults, out)
     folder = drive_folder(out, drive)
     log = Path(out) / "logs" / f"{drive.name}.log"

@@ -16,6 +16,7 @@ Numbers are checked where they are read: one line naming the file and what is wr
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -26,6 +27,7 @@ from flowvo.camera import CameraIntrinsics, LensDistortion, check_camera_height,
 from flowvo.errors import FlowvoError
 
 MAX_CALIBRATION_BYTES = 1_000_000  # calibration files are a few kB; anything larger is not one
+MAX_IMAGE_SIDE_PX = 100_000  # an image side stated by a calibration file; beyond it no camera
 
 
 @dataclass(frozen=True)
@@ -46,12 +48,13 @@ def read_camera_file(path: str | Path) -> CameraFile:
     """Read any supported calibration file (see the module docstring)."""
     path = Path(path)
     if not path.is_file():
-        raise FlowvoError("calibration file not found", path)
+        raise FlowvoError("calibration file not found" if not path.exists() else
+                          "is not a regular file (a folder, a FIFO or a device): give a calibration file", path)
     if path.stat().st_size > MAX_CALIBRATION_BYTES:
         raise FlowvoError(f"is {path.stat().st_size} bytes: too large for a calibration file", path)
     raw = path.read_bytes()
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8-sig")  # a byte-order mark (Windows editors write one) is no content
     except UnicodeDecodeError:
         raise FlowvoError("not a calibration file (not UTF-8 text)", path) from None
     stripped = text.lstrip()
@@ -88,26 +91,83 @@ def _opencv_storage(text: str, path: Path) -> CameraFile:
 
     try:
         storage = cv2.FileStorage(text, cv2.FILE_STORAGE_READ | cv2.FILE_STORAGE_MEMORY)
-    except cv2.error as error:
-        raise FlowvoError(f"not a readable OpenCV FileStorage file: {str(error).strip().splitlines()[-1]}",
-                          path) from None
+    except (cv2.error, SystemError) as error:  # OpenCV's Python binding raises SystemError for some parse errors
+        line, reason = _opencv_reason(error)
+        raise FlowvoError(f"not a readable OpenCV FileStorage file ({reason}; cut short or malformed?)", path,
+                          line) from None
     try:
-        matrix = storage.getNode("camera_matrix")
-        if matrix.empty() or matrix.mat() is None:
+        K = _storage_matrix(storage.getNode("camera_matrix"), "camera_matrix", path)
+        if K is None:
             raise FlowvoError("OpenCV FileStorage file without camera_matrix", path)
-        K = np.asarray(matrix.mat(), dtype=np.float64)
         if K.shape != (3, 3):
             raise FlowvoError(f"camera_matrix must be 3x3, got {K.shape[0]}x{K.shape[1]}", path)
-        node = storage.getNode("distortion_coefficients")
-        coefficients = () if node.empty() or node.mat() is None else tuple(np.asarray(node.mat()).ravel())
+        D = _storage_matrix(storage.getNode("distortion_coefficients"), "distortion_coefficients", path)
+        coefficients = () if D is None else tuple(D.ravel())
         model_node = storage.getNode("distortion_model")
-        model = model_node.string() if not model_node.empty() and model_node.isString() else None
-        size = _size(storage.getNode("image_width").real(), storage.getNode("image_height").real())
-        height_node = storage.getNode("camera_height_m")
-        height = None if height_node.empty() else height_node.real()
+        model = None
+        if not model_node.empty():
+            if not model_node.isString():
+                raise FlowvoError("distortion_model must be a name such as plumb_bob", path)
+            model = model_node.string()
+        size = _size(_storage_number(storage, "image_width", path), _storage_number(storage, "image_height", path),
+                     path)
+        height = _storage_number(storage, "camera_height_m", path)
     finally:
         storage.release()
     return _camera_file(CameraIntrinsics.from_matrix(K), model, coefficients, height, size, "OpenCV FileStorage", path)
+
+
+def _opencv_reason(error: BaseException) -> tuple[int | None, str]:
+    """The line (when OpenCV says) and the reason of an OpenCV parse error, from the error or its cause."""
+    import re
+
+    cause = error.__cause__ or error.__context__ or error
+    text = str(cause).strip().splitlines()[-1] if str(cause).strip() else type(error).__name__
+    found = re.search(r"in function '\((\d+)\): (.*)'$", text)
+    if found:
+        return int(found.group(1)), found.group(2).strip()
+    return None, re.sub(r"^OpenCV\([^)]*\) \S+: error: \([^)]*\) ", "", text)
+
+
+def _storage_matrix(node: Any, name: str, path: Path) -> np.ndarray | None:
+    """The matrix of a FileStorage node (None when absent), its ``rows`` x ``cols`` checked against the
+    numbers its ``data`` holds (OpenCV asserts on a mismatch)."""
+    import cv2
+
+    if node.empty():
+        return None
+    if node.isSeq():  # a plain list of numbers
+        items = [node.at(i) for i in range(node.size())]
+        if not all(item.isInt() or item.isReal() for item in items):
+            raise FlowvoError(f"{name} must be a list of numbers", path)
+        return np.array([[item.real() for item in items]], dtype=np.float64)
+    if node.isMap():
+        rows, cols, data = node.getNode("rows"), node.getNode("cols"), node.getNode("data")
+        if not (rows.isInt() and cols.isInt() and data.isSeq()):
+            raise FlowvoError(f"{name} must be an opencv-matrix with rows, cols and a data list", path)
+        expected = int(rows.real()) * int(cols.real())
+        if data.size() != expected:
+            raise FlowvoError(f"{name} says rows {int(rows.real())}, cols {int(cols.real())} ({expected} numbers) but "
+                              f"its data holds {data.size()}", path)
+    try:
+        matrix = node.mat()
+    except cv2.error as error:
+        raise FlowvoError(f"{name} is not a readable matrix ({_opencv_reason(error)[1]})", path) from None
+    if matrix is None:
+        raise FlowvoError(f"{name} is not a matrix (expected an opencv-matrix with rows, cols and data)", path)
+    matrix = np.asarray(matrix, dtype=np.float64)
+    return matrix.reshape(matrix.shape[0], -1) if matrix.ndim >= 2 else matrix.reshape(1, -1)
+
+
+def _storage_number(storage: Any, name: str, path: Path) -> float | None:
+    """The number at ``name`` (None when absent); a one-line error for text or a list there."""
+    node = storage.getNode(name)
+    if node.empty():
+        return None
+    if not (node.isInt() or node.isReal()):
+        shown = repr(node.string()) if node.isString() else "a list or map"
+        raise FlowvoError(f"{name} must be a number, got {shown}", path)
+    return float(node.real())
 
 
 def _yaml(text: str, path: Path) -> CameraFile:
@@ -129,7 +189,7 @@ def _yaml(text: str, path: Path) -> CameraFile:
         coefficients = data.get("distortion_coefficients") or ()
         if isinstance(coefficients, dict):
             coefficients = _matrix_data(coefficients, "distortion_coefficients", path)
-        size = _size(data.get("image_width"), data.get("image_height"))
+        size = _size(_yaml_number(data, "image_width", path), _yaml_number(data, "image_height", path), path)
         return _camera_file(CameraIntrinsics.from_matrix(K.reshape(3, 3)), data.get("distortion_model"),
                             tuple(coefficients), data.get("camera_height_m"), size, "ROS camera_calibration", path)
     cameras = sorted(key for key in data if isinstance(key, str) and key.startswith("cam") and key[3:].isdigit())
@@ -143,8 +203,14 @@ def _yaml(text: str, path: Path) -> CameraFile:
         values = _numbers(camera["intrinsics"], "intrinsics", path)
         if len(values) != 4:
             raise FlowvoError(f"Kalibr intrinsics must be [fu, fv, pu, pv], got {len(values)} numbers", path)
-        resolution = camera.get("resolution") or (None, None)
-        size = _size(*resolution) if len(resolution) == 2 else None
+        resolution = camera.get("resolution")
+        if resolution is None:
+            size = None
+        else:
+            width_height = _numbers(resolution, "Kalibr resolution", path)
+            if len(width_height) != 2:
+                raise FlowvoError(f"Kalibr resolution must be [width, height], got {len(width_height)} numbers", path)
+            size = _size(width_height[0], width_height[1], path)
         return _camera_file(CameraIntrinsics(*values), camera.get("distortion_model", "none"),
                             tuple(camera.get("distortion_coeffs") or ()), camera.get("camera_height_m",
                                                                                       data.get("camera_height_m")),
@@ -165,13 +231,24 @@ def _numbers(values: Any, name: str, path: Path) -> list[float]:
     return [float(v) for v in values]
 
 
-def _size(width: Any, height: Any) -> tuple[int, int] | None:
-    """(height, width) when both are positive whole numbers, else None (not stated)."""
-    try:
-        w, h = float(width), float(height)
-    except (TypeError, ValueError):
+def _yaml_number(data: dict, name: str, path: Path) -> float | None:
+    value = data.get(name)
+    return None if value is None else _number(value, name, path)
+
+
+def _size(width: float | None, height: float | None, path: Path) -> tuple[int, int] | None:
+    """(height, width) when both are given (positive whole numbers of pixels), None when neither is (OpenCV
+    writes 0 for unknown); a one-line error otherwise."""
+    if width in (None, 0) and height in (None, 0):
         return None
-    return (int(h), int(w)) if w >= 1 and h >= 1 and w.is_integer() and h.is_integer() else None
+    if width is None or height is None:
+        raise FlowvoError(f"gives the image {'width' if height is None else 'height'} but not its "
+                          f"{'height' if height is None else 'width'}", path)
+    if not (math.isfinite(width) and math.isfinite(height) and width >= 1 and height >= 1 and width.is_integer()
+            and height.is_integer() and max(width, height) <= MAX_IMAGE_SIDE_PX):
+        raise FlowvoError(f"image size must be whole numbers of pixels in [1, {MAX_IMAGE_SIDE_PX}], got "
+                          f"{width:g}x{height:g}", path)
+    return int(height), int(width)
 
 
 def _camera_file(intrinsics: CameraIntrinsics, model: Any, coefficients: tuple, height: Any,

@@ -11,7 +11,9 @@ from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M as DEVKIT_LENGTHS_M
 
 def command(args: argparse.Namespace) -> int:
     from flowvo.batch import discover_drives, run_batch
+    from flowvo.io.outputs import check_path_text
 
+    check_path_text(args.out, "--out")  # before the search, which skips --out: '' would skip the current folder
     drives = discover_drives(args.inputs, exclude=args.out)
     defaults = run_options(args, args.out)
     defaults.mcap, defaults.frame_id, defaults.child_frame_id = args.mcap, args.frame_id, args.child_frame_id
@@ -25,6 +27,8 @@ def command(args: argparse.Namespace) -> int:
     for row in rows:
         if row.status == "failed":
             print(f"failed: {row.drive}: {row.error}")
+        elif row.warnings:
+            print(f"warning: {row.drive}: {row.warnings}")
     print(f"summary: {args.out}/summary.csv, {args.out}/summary.json, {args.out}/index.html")
     return 1 if counts["failed"] else 0
 

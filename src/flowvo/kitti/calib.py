@@ -52,7 +52,8 @@ def read_calibration(path: str | Path) -> Calibration:
         raise FlowvoError("calibration file not found", path)
     matrices: dict[str, np.ndarray] = {}
     extras: dict[str, tuple[int, str]] = {}
-    with open(path, encoding="utf-8", errors="replace") as handle:  # binary bytes then fail as text, per line
+    with open(path, encoding="utf-8-sig", errors="replace") as handle:  # binary bytes fail as text, per line; -sig:
+        # a byte-order mark is no part of the first line
         for line_number, line in enumerate(handle, start=1):
             if not line.strip():
                 continue

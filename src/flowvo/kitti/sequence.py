@@ -20,7 +20,7 @@ from flowvo.io.outputs import check_path_text, validate_name
 from flowvo.io.text_numbers import parse_float
 from flowvo.kitti.calib import Calibration, read_calibration
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.trajectory import Trajectory
+from flowvo.trajectory import MIN_FRAME_INTERVAL_S, Trajectory
 
 _FRAME_NAME = re.compile(r"^(\d{6})\.png$")
 CAMERAS = ("image_0", "image_1", "image_2", "image_3")
@@ -97,7 +97,7 @@ class KittiSequence:
         if not path.is_file():
             raise FlowvoError("times.txt not found", path)
         values: list[float] = []
-        with open(path, encoding="utf-8", errors="replace") as handle:
+        with open(path, encoding="utf-8-sig", errors="replace") as handle:  # -sig: a byte-order mark is no text
             for line_number, line in enumerate(handle, start=1):
                 if not line.strip():
                     continue
@@ -109,6 +109,10 @@ class KittiSequence:
                     raise FlowvoError("timestamp is not a finite number of seconds", path, line_number)
                 if len(values) > 1 and values[-1] <= values[-2]:
                     raise FlowvoError("timestamps must increase; this one does not", path, line_number)
+                if len(values) > 1 and values[-1] - values[-2] < MIN_FRAME_INTERVAL_S:
+                    raise FlowvoError(f"timestamp {values[-1] - values[-2]:.3g} s after the previous one: frames "
+                                      f"must be at least {MIN_FRAME_INTERVAL_S:g} s apart (times in seconds?)", path,
+                                      line_number)
         if len(values) != n_frames:
             raise FlowvoError(f"has {len(values)} timestamps for {n_frames} frames", path)
         return np.asarray(values)

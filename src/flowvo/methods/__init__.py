@@ -90,7 +90,7 @@ def _classical(options: MethodOptions, source: FrameSource, camera: Camera) -> O
         if source.ground_truth is None:
             raise FlowvoError("--scale-from gt needs ground-truth poses, and this drive has none")
         steps = planar_targets(source.ground_truth.T_world_cam)[:, 0]
-    return ClassicalStep(camera, steps)
+    return ClassicalStep(camera, steps, source.image_size_hw)
 
 
 _GEOMETRY_STAGES = ("image_read", "flow", "geometry", "chaining")  # flowvo's rare network fallback is geometry

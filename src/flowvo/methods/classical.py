@@ -9,6 +9,8 @@ VISO2-M does. Lens distortion is removed from the tracked points.
 
 from __future__ import annotations
 
+import logging
+
 import cv2
 import numpy as np
 
@@ -16,6 +18,7 @@ from flowvo.camera import Camera, undistort_points
 from flowvo.geometry import invert_se3
 from flowvo.methods.base import NoWindow
 
+_log = logging.getLogger(__name__)
 MIN_TRACKS = 30
 STILL_FLOW_PX = 0.3
 
@@ -79,6 +82,9 @@ class ClassicalTracker:
         self.index = 0
         self.last_scale = 1.0
         self.last_motion = np.eye(4)
+        self.fitted_steps = 0  # steps whose motion was fitted to their tracks
+        self.still_steps = 0  # steps taken as a standstill
+        self.scaled_steps = 0  # fitted steps whose length was measured (the camera height or the ground truth)
 
     @staticmethod
     def tracks(previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -90,15 +96,20 @@ class ClassicalTracker:
         p0, p1 = tracks
         still = len(p0) >= MIN_TRACKS and np.median(np.linalg.norm(p1 - p0, axis=1)) < STILL_FLOW_PX
         result = None if still else relative_motion(p0, p1, self.K)
+        self.still_steps += int(still)
         if result is None:
             motion = np.eye(4) if still else self.last_motion
         else:
             motion, inliers = result
+            self.fitted_steps += 1
             if self.step_lengths_m is not None:
                 scale = self.step_lengths_m[self.index]
+                self.scaled_steps += 1
             else:
                 height = ground_height_unit(p0[inliers], p1[inliers], motion, self.K, image_hw)
-                scale = self.camera_height_m / height if height and height > 1e-3 else self.last_scale
+                measured = bool(height and height > 1e-3)
+                self.scaled_steps += int(measured)
+                scale = self.camera_height_m / height if measured else self.last_scale
                 scale = float(np.clip(scale, 0.0, 4.0))
                 self.last_scale = scale
             motion = motion.copy()
@@ -116,8 +127,11 @@ class ClassicalStep(NoWindow):
     motion_stage = "geometry"
     opencv_threads: int | None = None
 
-    def __init__(self, camera: Camera, gt_step_lengths_m: np.ndarray | None = None) -> None:
+    def __init__(self, camera: Camera, gt_step_lengths_m: np.ndarray | None = None,
+                 image_size_hw: tuple[int, int] | None = None) -> None:
         self.camera = camera
+        self.image_size_hw = image_size_hw
+        self.warnings: list[str] = []
         self.tracker = ClassicalTracker(camera.K, gt_step_lengths_m, camera.camera_height_m)
         self.scale_source = "gt" if gt_step_lengths_m is not None else "height"
         self.label = "classical (KLT + essential matrix, " + (
@@ -140,6 +154,29 @@ class ClassicalStep(NoWindow):
         """``T_prev_cur`` from the tracks."""
         return self.tracker.motion(flow, previous.shape)
 
+    def flush(self) -> list[tuple[float, np.ndarray]]:
+        """Nothing is held back. A drive on which the method measured nothing gets a warning (logged, and in
+        :meth:`summary` for run.json): no step's motion fitted (too few corners tracked: tiny or blank frames,
+        the path is standing still), or, moving, no step's length measured from the camera height (no road
+        texture below the horizon: every length is the first step's 1 m, made up)."""
+        tracker, size = self.tracker, self.image_size_hw
+        frames = f" (frames of {size[1]}x{size[0]} px)" if size is not None else ""
+        if tracker.index and not tracker.fitted_steps and tracker.still_steps < tracker.index:
+            self.warnings.append(f"the classical method fitted the motion of none of the {tracker.index} steps: fewer "
+                                 f"than {MIN_TRACKS} corners tracked in each{frames}; the path is not measured")
+        elif tracker.fitted_steps and not tracker.scaled_steps:
+            self.warnings.append(f"the classical method measured the camera height in none of the "
+                                 f"{tracker.fitted_steps} steps it fitted: too few tracked corners on the road"
+                                 f"{frames}, so every length is made up (1 m a step); use --method flowvo, or "
+                                 "--scale-from gt where ground truth exists")
+        for warning in self.warnings:
+            _log.warning("warning: %s", warning)
+        return []
+
     def summary(self) -> dict:
-        """Where the metric scale came from."""
-        return {"scale_source": self.scale_source}
+        """Where the metric scale came from, and how many steps had their motion fitted and their length
+        measured."""
+        tracker = self.tracker
+        return {"scale_source": self.scale_source, "warnings": list(self.warnings), "classical_steps": {
+            "fitted": tracker.fitted_steps, "length_measured": tracker.scaled_steps, "standstill": tracker.still_steps,
+            "repeated_last_motion": tracker.index - tracker.fitted_steps - tracker.still_steps}}

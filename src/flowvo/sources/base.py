@@ -29,7 +29,10 @@ class FrameSource(Protocol):
     ``frame_count``: number of frames when known in advance (None for streams of unknown length).
     ``ground_truth``: camera-to-world poses per frame when the source has them, else None.
     ``frames()``: yields ``(timestamp_s, image)`` in order, image (H, W) uint8 grey; timestamps strictly
-    increasing, in seconds (KITTI: times.txt; video: container time; bags: header stamps).
+    increasing, at least :data:`MIN_FRAME_INTERVAL_S` apart, in seconds (KITTI: times.txt; video: container
+    time; bags: header stamps).
+    ``warnings``: what the source had to work around while reading (a video that ended before the frame
+    count its container states), one line each, filled as ``frames()`` runs; recorded in run.json.
     ``is_synthetic``: True for frames flowvo rendered itself.
     ``stamps_ns``: the frames' stamps as integer nanoseconds when the source has them exactly (bag header
     stamps: float seconds since 1970 lose up to ~120 ns), else None.
@@ -44,6 +47,7 @@ class FrameSource(Protocol):
     frame_count: int | None
     ground_truth: Trajectory | None
     is_synthetic: bool
+    warnings: list[str]
 
     def frames(self) -> Iterator[tuple[float, np.ndarray]]: ...
 

@@ -24,6 +24,7 @@ class KittiFolderSource:
         self.image_size_hw = sequence.image_size_hw
         self.frame_count: int | None = len(sequence)
         self.is_synthetic = sequence.is_synthetic
+        self.warnings: list[str] = []
         sequence.require_frames(2, "odometry")
 
     @cached_property

@@ -36,7 +36,7 @@ from flowvo.ros.images import (
 )
 from flowvo.ros.tf_static import StaticTransform, camera_height_m, camera_pitch_deg
 from flowvo.sources.base import safe_source_name
-from flowvo.trajectory import Trajectory
+from flowvo.trajectory import MIN_FRAME_INTERVAL_S, Trajectory
 
 BAG_FILE_SUFFIXES = (".bag", ".mcap", ".db3")
 TF_STATIC_TOPIC = "/tf_static"
@@ -70,6 +70,7 @@ class BagSource:
         self.stamps_ns = stamps_ns  # exact, for outputs stamped like the images
         self.timestamps_s = stamps_ns / 1e9
         self.frame_count: int | None = len(stamps_ns)
+        self.warnings: list[str] = []
 
     def frames(self) -> Iterator[tuple[float, np.ndarray]]:
         """Yield ``(timestamp_s, image (H, W) uint8 grey)`` per message of the topic, in bag order."""
@@ -208,9 +209,10 @@ def _scan_images(reader: Any, bag: Path, topic: str, message_type: str) -> tuple
     size_hw: tuple[int, int] | None = None
     for index, msg in _topic_messages(reader, bag, topic):
         stamp_ns = msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
-        if stamps_ns and stamp_ns <= stamps_ns[-1]:
-            raise FlowvoError(f"{topic} header stamps must strictly increase: message {index} at "
-                              f"{stamp_ns / 1e9:.9f} s follows {stamps_ns[-1] / 1e9:.9f} s", bag)
+        if stamps_ns and stamp_ns - stamps_ns[-1] < MIN_FRAME_INTERVAL_S * 1e9:
+            raise FlowvoError(f"{topic} header stamps must strictly increase, at least {MIN_FRAME_INTERVAL_S:g} s "
+                              f"apart: message {index} at {stamp_ns / 1e9:.9f} s follows {stamps_ns[-1] / 1e9:.9f} s",
+                              bag)
         stamps_ns.append(stamp_ns)
         if message_type != IMAGE_TYPE and size_hw is not None:
             continue
