@@ -26,6 +26,8 @@ from flowvo.camera import CameraIntrinsics, LensDistortion
 from flowvo.cli import main
 from flowvo.errors import FlowvoError
 
+SHARED = Path(__file__).resolve().parents[1].parent / "shared"
+
 SIZE_HW = (480, 640)
 ROWS, COLS, SQUARE_M = 6, 9, 0.03  # checkerboard inner corners
 SQUARE_PX = 40  # texture resolution: ~1.5 texture pixels per rendered (supersampled) pixel
@@ -120,16 +122,37 @@ def test_equidistant_fisheye_is_recovered():
     assert len(result.distortion.coefficients) == 4 and result.rms_px < 0.3
 
 
-def test_charuco_board_is_recovered(plumb_bob_rays):
-    rows, cols, square_m, marker_m = 7, 9, 0.03, 0.022
-    board = Board("charuco", rows, cols, square_m, marker_m, "DICT_4X4_50")
-    opencv_board = cv2.aruco.CharucoBoard((cols, rows), square_m, marker_m,
+CHARUCO_ROWS, CHARUCO_COLS, CHARUCO_SQUARE_M, CHARUCO_MARKER_M = 7, 9, 0.03, 0.022
+
+
+@pytest.fixture(scope="module")
+def charuco_views(plumb_bob_rays):
+    """12 views of a ChArUco board through the plumb-bob camera."""
+    rows, cols, square_m = CHARUCO_ROWS, CHARUCO_COLS, CHARUCO_SQUARE_M
+    opencv_board = cv2.aruco.CharucoBoard((cols, rows), square_m, CHARUCO_MARKER_M,
                                           cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_50))
     poses = varied_poses(12, PLUMB_BOB, ((cols + 2) * square_m, (rows + 2) * square_m), seed=2)
-    images = render(plumb_bob_rays, charuco_texture(opencv_board, SQUARE_PX), square_m, poses)
-    result = calibrate(labelled(images), board)
+    return render(plumb_bob_rays, charuco_texture(opencv_board, SQUARE_PX), square_m, poses)
+
+
+def charuco_board(scale: float = 1.0) -> Board:
+    return Board("charuco", CHARUCO_ROWS, CHARUCO_COLS, CHARUCO_SQUARE_M * scale, CHARUCO_MARKER_M * scale)
+
+
+def test_charuco_board_is_recovered(charuco_views):
+    result = calibrate(labelled(charuco_views), charuco_board())
     assert_recovers(result, PLUMB_BOB)
     assert result.views_used >= 10 and result.rms_px < 0.3
+
+
+@pytest.mark.parametrize("scale", [1e7, 1e-5])
+def test_a_charuco_board_in_any_unit_is_found_and_gives_the_same_camera(charuco_views, scale):
+    """OpenCV's ChArUco detector has tolerances in the board's unit: a board in kilometres was never found."""
+    reference = calibrate(labelled(charuco_views), charuco_board())
+    result = calibrate(labelled(charuco_views), charuco_board(scale))
+    assert result.views_found == reference.views_found
+    assert result.intrinsics.fx == pytest.approx(reference.intrinsics.fx, rel=1e-9)
+    assert result.intrinsics.cy == pytest.approx(reference.intrinsics.cy, rel=1e-9)
 
 
 def test_cli_writes_the_file_run_reads_back_identically(board_folder, checkerboard_result, tmp_path, capsys,
@@ -246,10 +269,78 @@ def test_missing_input_a_single_image_or_a_text_file_is_refused(board_folder, tm
     assert "cannot open this file as a video" in refusal([str(tmp_path / "drive.txt"), *out], capsys)
 
 
-def test_views_of_different_sizes_are_refused(checkerboard_views):
-    images = labelled(checkerboard_views[:9]) + [("small.png", checkerboard_views[9][:240, :320])]
-    with pytest.raises(FlowvoError, match="small.png: is 320x240, the first image 640x480"):
+def test_a_few_views_of_another_size_are_skipped_and_named(checkerboard_views, checkerboard_result):
+    odd = [("odd 1.png", np.pad(checkerboard_views[3], ((0, 1), (0, 1)), mode="edge")),  # 641x481, as re-saved
+           ("odd 2.png", checkerboard_views[5][:240, :320])]
+    views = labelled(checkerboard_views)
+    images = views[:4] + odd[:1] + views[4:] + odd[1:]
+    result = calibrate(images, CHECKERBOARD)
+    assert result.skipped_for_size == ("odd 1.png", "odd 2.png") and result.image_size_hw == SIZE_HW
+    assert result.images_seen == result.views_used == 15  # the 640x480 images alone
+    assert result.warnings == ("2 of 17 images skipped: their size differs from the 640x480 of the images used "
+                               "(intrinsics are in pixels of one resolution): odd 1.png (641x481), "
+                               "odd 2.png (320x240)",)
+    assert result.intrinsics.fx == pytest.approx(checkerboard_result.intrinsics.fx, rel=1e-9)  # the same views
+
+
+def test_the_size_with_most_board_views_is_used_whatever_comes_first(checkerboard_views):
+    blank = [(f"blank {i}.png", np.full((240, 320), 128, np.uint8)) for i in range(20)]  # more images, no board
+    result = calibrate(blank + labelled(checkerboard_views), CHECKERBOARD)
+    assert result.image_size_hw == SIZE_HW and len(result.skipped_for_size) == 20
+    assert "20 of 35 images skipped" in result.warnings[0] and "blank 0.png (320x240)" in result.warnings[0]
+    assert "and 8 more" in result.warnings[0]  # twelve named, the rest counted
+
+
+def test_too_few_views_left_at_the_size_used_are_refused_naming_what_was_skipped(checkerboard_views):
+    images = labelled(checkerboard_views[:5]) + [("small.png", checkerboard_views[9][:240, :320])] + \
+        [(f"grey {i}.png", np.full(SIZE_HW, 128, np.uint8)) for i in range(2)]
+    with pytest.raises(FlowvoError, match=r"found in only 5 of 7 images of 640x480 \(others skipped for their "
+                                          r"size\) \(not in grey 0.png, grey 1.png\); calibration needs at least 8"):
         calibrate(images, CHECKERBOARD)
+
+
+def test_images_without_the_board_are_named(checkerboard_views, checkerboard_result):
+    grey = [(f"grey {i}.png", np.full(SIZE_HW, 128, np.uint8)) for i in range(2)]
+    result = calibrate(grey[:1] + labelled(checkerboard_views) + grey[1:], CHECKERBOARD)
+    assert result.without_board == ("grey 0.png", "grey 1.png") and result.skipped_for_size == ()
+    assert result.images_seen == 17 and result.views_found == 15 and result.warnings == ()
+    assert result.intrinsics.fx == pytest.approx(checkerboard_result.intrinsics.fx, rel=1e-9)
+
+
+@pytest.mark.parametrize("square_m", [1e6, 1e-7, None])
+@pytest.mark.parametrize("model", ["plumb_bob", "equidistant"])
+def test_the_square_size_does_not_change_the_intrinsics(checkerboard_views, square_m, model):
+    """OpenCV's solvers stop on a change relative to all their parameters, the boards' translations among
+    them: in board units of 1e6 they stopped early (cy 2.6 px off on these views). They solve in whole squares
+    now, the same numbers whatever the unit."""
+    reference = calibrate(labelled(checkerboard_views), CHECKERBOARD, model)
+    result = calibrate(labelled(checkerboard_views), Board("checkerboard", ROWS, COLS, square_m), model)
+    for name in ("fx", "fy", "cx", "cy"):
+        assert getattr(result.intrinsics, name) == pytest.approx(getattr(reference.intrinsics, name), rel=1e-7)  # the
+        # last bits move with the unit's rounding (1e-7 m squares: 3e-9); the bug put cy 2.6 px (1 %) off
+    np.testing.assert_allclose(result.distortion.coefficients, reference.distortion.coefficients, atol=1e-7)
+    assert result.rms_px == pytest.approx(reference.rms_px, rel=1e-4)  # the poses scaled back to the board's unit
+
+
+DASHCAM_PHOTOS = SHARED / "data" / "real" / "dashcam_udacity" / "camera_cal"
+
+
+def test_a_real_dash_cams_photos_calibrate_skipping_and_naming_the_odd_ones(tmp_path, capsys):
+    """20 photos as shipped: two are 1281x721, the board is not found whole in three."""
+    if not DASHCAM_PHOTOS.is_dir():
+        pytest.skip(f"shared dash-cam photos not found at {DASHCAM_PHOTOS}")
+    out = tmp_path / "cam.yaml"
+    assert main(["calibrate", str(DASHCAM_PHOTOS), "--rows", "6", "--cols", "9", "--out", str(out), "-q"]) == 0
+    printed = capsys.readouterr().out
+    assert "found in 15 of the 18 1280x720 images (2 of another size skipped, see below)" in printed
+    names = [f"{DASHCAM_PHOTOS}/calibration{n}.jpg" for n in (1, 4, 5, 15, 7)]
+    assert f"board not found in 3: {names[0]}, {names[1]}, {names[2]}\n" in printed
+    assert f"warning: 2 of 20 images skipped: their size differs from the 1280x720 of the images used " \
+           f"(intrinsics are in pixels of one resolution): {names[3]} (1281x721), {names[4]} (1281x721)" in printed
+    camera = read_camera_file(out)
+    assert camera.image_size_hw == (720, 1280)
+    assert camera.intrinsics.fx == pytest.approx(1157, rel=0.01)  # plain OpenCV on the 18 photos: 1156.5
+    assert camera.intrinsics.fy == pytest.approx(1153, rel=0.01)
 
 
 def test_a_board_always_facing_the_camera_is_refused(plumb_bob_rays):

@@ -183,7 +183,8 @@ def test_report_escapes_the_runs_text_and_scores_their_own_lengths(a_run, tmp_pa
     assert page.count("</script>") == 1 and page.count("<script") == 1
     embedded = page.split("id='results'>")[1].split("</script>")[0]
     assert json.loads(embedded)[0]["method"] == summary["label"]
-    assert "1, 2 m sub-paths" in page and "t_err_vs_length_00.png" in page  # the run's --lengths, not 100..800
+    assert "1, 2 m sub-paths" in page  # the run's --lengths, not 100..800
+    assert "t_err_vs_length_00.png" not in page and "n/a" not in page  # its 0.6 m path has no such sub-path
     summary["sequence"], summary["data"] = "<img src=x onerror=alert(1)>", None  # as a video run names it
     (run / "run.json").write_text(json.dumps(summary))
     refused(capsys, "report", run, "--out", tmp_path / "rep2", says=("run.json", "sequence"))

@@ -40,7 +40,8 @@ def test_report_has_every_section(classical_runs, tmp_path):
     main(["report", *map(str, runs), "--out", str(tmp_path)])
     page = (tmp_path / "index.html").read_text()
     for text in ("Synthetic data", "reference system (2016), published", "frame-weighted average", "10.77",
-                 "0.0623", "speed-up vs reference", "Timing on this machine"):
+                 "0.0623", "speed-up vs reference", "speed-up vs baseline", "Timing on this machine",
+                 "What each drive did", "<th>top speed, 1 s [m/s]</th>"):
         assert text in page
     for png in ("path_00.png", "t_err_vs_length_00.png", "r_err_vs_speed_00.png", "frame_errors_00.png"):
         assert f"src='{png}'" in page and (tmp_path / png).is_file()

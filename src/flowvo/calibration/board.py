@@ -3,7 +3,8 @@
 A board is a plane with known points: the inner corners of a checkerboard, or the chessboard corners of a
 ChArUco board (a checkerboard whose white squares hold ArUco markers, so a partly visible board still
 identifies each corner). Board frame: x along a row of squares, y down the columns, z into the board,
-in metres when the square size is given, else in squares (intrinsics do not depend on the unit).
+in metres when the square size is given, else in squares (the calibration solves in squares whatever the
+unit, so the intrinsics do not depend on it).
 Image points are pixels of the image, x right, y down, OpenCV's convention (pixel centres at integers).
 """
 
@@ -111,9 +112,13 @@ class BoardDetector:
                 raise FlowvoError(f"a ChArUco board of {board.rows}x{board.cols} squares holds {markers} markers; "
                                   f"{board.dictionary} has only {dictionary.bytesList.shape[0]}: choose a larger "
                                   "dictionary (e.g. DICT_4X4_100) or the one the board was printed with")
-            self._charuco = cv2.aruco.CharucoBoard((board.cols, board.rows), board.square_m, board.marker_m, dictionary)
+            # OpenCV's board in squares: its detector's tolerances are in the board's unit, so a board given
+            # in kilometres or nanometres was never found; the points are scaled to the board's unit after
+            self._charuco = cv2.aruco.CharucoBoard((board.cols, board.rows), 1.0, board.marker_m / board.square_m,
+                                                   dictionary)
             self._charuco_detector = cv2.aruco.CharucoDetector(self._charuco)
-            self.corner_points = np.asarray(self._charuco.getChessboardCorners(), np.float32).reshape(-1, 3)
+            self.corner_points = (np.asarray(self._charuco.getChessboardCorners(), np.float64).reshape(-1, 3)
+                                  * board.unit_m).astype(np.float32)
         else:
             grid = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * board.unit_m  # row by row, OpenCV's order
             self.corner_points = np.c_[grid, np.zeros(len(grid))].astype(np.float32)
@@ -153,4 +158,4 @@ class BoardDetector:
             return None
         object_points, image_points = self._charuco.matchImagePoints(corners, ids)
         return BoardView(np.asarray(image_points, np.float32).reshape(-1, 2),
-                         np.asarray(object_points, np.float32).reshape(-1, 3))
+                         (np.asarray(object_points, np.float64).reshape(-1, 3) * self.board.unit_m).astype(np.float32))

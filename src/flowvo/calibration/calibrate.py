@@ -5,6 +5,11 @@ checks that they can determine the camera, solves, and reports the RMS reproject
 with a one-line reason, views that cannot determine the camera (criteria and their measured basis below);
 it warns (never refuses) about a large reprojection error.
 
+Real photo sets: images whose size differs from that of most views of the board (a photo cropped or
+re-saved by some tool) are skipped, named in a warning; images where the board is not found are named in
+the result. Only too few usable views remaining is refused. The solvers work in units of squares
+(``_solve``), so the square size given never changes the intrinsics.
+
 A view is described, without intrinsics, by where the board's outline (the four outer corners of its
 corner grid) lies in the image, in fractions of the image's width and height (8 numbers). Views are
 chosen farthest-first in that description; a view within :data:`REPEATED_VIEW_DISTANCE` of a chosen one
@@ -43,6 +48,7 @@ MIN_TILT_SPREAD_DEG = 20.0
 MAX_VIEWS = 60  # beyond this more views add little and the solver's cost grows with every one
 REPEATED_VIEW_DISTANCE = 0.02  # Euclidean, over the outline's 8 coordinates (fractions of the image size)
 RMS_WARNING_PX = 1.0  # sharp views of a flat board give 0.1-0.5 px; above 1 px something is off
+MAX_NAMED = 12  # images named in a message; more are counted
 
 
 def _fisheye_flag(name: str) -> int:
@@ -66,7 +72,9 @@ class CalibrationResult:
     ``view_rms_px``: each view used and its own RMS error; ``images_seen``, ``views_found``: images read
     and those showing the board; ``coverage``: fraction of the image grid's cells holding a corner;
     ``tilt_spread_deg``: the largest angle between the board's normals in two views; ``warnings``: lines
-    to show the user (the calibration stands).
+    to show the user (the calibration stands); ``without_board``: the images (of the size used) where the
+    board was not found; ``skipped_for_size``: the images skipped because their size differs from most
+    images' (``images_seen`` counts only those of the size used).
     """
 
     intrinsics: CameraIntrinsics
@@ -80,6 +88,8 @@ class CalibrationResult:
     coverage: float
     tilt_spread_deg: float
     warnings: tuple[str, ...]
+    without_board: tuple[str, ...] = ()
+    skipped_for_size: tuple[str, ...] = ()
 
     @property
     def views_used(self) -> int:
@@ -94,17 +104,21 @@ def calibrate(images: Iterable[tuple[str, np.ndarray]], board: Board, model: str
     if model not in CALIBRATION_MODELS:
         raise FlowvoError(f"unknown distortion model {model!r}; expected one of {', '.join(CALIBRATION_MODELS)}")
     detector = BoardDetector(board)
-    labels, views, size_hw, seen = _find_views(images, detector, total)
+    search = _find_views(images, detector, total)
+    size_hw = _majority_size(search)
+    size_warning = _size_warning(search, size_hw)
+    seen, without_board = len(search.images[size_hw]), tuple(search.without_board.get(size_hw, ()))
+    labels, views = [label for label, _ in search.views.get(size_hw, ())], [v for _, v in search.views.get(size_hw, ())]
     chosen = spread_views([view_outline(detector, view, size_hw) for view in views], MAX_VIEWS,
                           REPEATED_VIEW_DISTANCE) if views else []
-    _check_view_count(len(chosen), len(views), seen, board)
+    _check_view_count(len(chosen), len(views), seen, board, size_hw if size_warning else None, without_board)
     found, labels, views = len(views), [labels[i] for i in chosen], [views[i] for i in chosen]
     coverage = coverage_fraction([view.image_points_px for view in views], size_hw)
     if coverage < MIN_COVERAGE:
         raise FlowvoError(f"the board's corners cover only {coverage:.0%} of the image (a {COVERAGE_GRID}x"
                           f"{COVERAGE_GRID} grid; at least {MIN_COVERAGE:.0%} needed): move it into the corners "
                           "and edges of the frame, or bring it closer")
-    K, D, rotations = _solve(views, size_hw, model)
+    K, D, rotations = _solve(views, size_hw, model, board.unit_m)
     errors = [_view_errors(view, rotation, translation, K, D, model) for view, (rotation, translation)
               in zip(views, rotations, strict=True)]
     spread = tilt_spread_deg([rotation for rotation, _ in rotations])
@@ -113,46 +127,88 @@ def calibrate(images: Iterable[tuple[str, np.ndarray]], board: Board, model: str
                           f"deg; at least {MIN_TILT_SPREAD_DEG:g} needed to tell the focal length from the "
                           "distance): tilt it by 20-40 deg left, right, up and down")
     rms = float(np.sqrt(np.mean(np.concatenate(errors) ** 2)))
-    warnings = () if rms <= RMS_WARNING_PX else (
-        f"RMS reprojection error {rms:.2f} px is above {RMS_WARNING_PX:g} px: blurred or rolling-shutter views, "
-        "a board that is not flat, wrong --rows/--cols/--square, or a lens the model does not fit",)
+    warnings = () if size_warning is None else (size_warning,)
+    if rms > RMS_WARNING_PX:
+        warnings += (f"RMS reprojection error {rms:.2f} px is above {RMS_WARNING_PX:g} px: blurred or rolling-shutter "
+                     "views, a board that is not flat, wrong --rows/--cols/--square, or a lens the model does not fit",)
     distortion = LensDistortion(model, tuple(float(c) for c in D.ravel()[:len(COEFFICIENT_NAMES[model])]))
     return CalibrationResult(CameraIntrinsics.from_matrix(K), distortion, rms, (int(size_hw[0]), int(size_hw[1])),
                              seen, found, tuple(labels),
-                             tuple(float(np.sqrt(np.mean(e ** 2))) for e in errors), coverage, spread, warnings)
+                             tuple(float(np.sqrt(np.mean(e ** 2))) for e in errors), coverage, spread, warnings,
+                             without_board, tuple(label for size, names in search.images.items() if size != size_hw
+                                                  for label in names))
 
 
-def _find_views(images: Iterable[tuple[str, np.ndarray]], detector: BoardDetector, total: int | None
-                ) -> tuple[list[str], list[BoardView], tuple[int, int], int]:
-    """The labels and views of the images showing the board, the image size (H, W) and the images seen."""
-    labels, views, size_hw, seen = [], [], None, 0
+@dataclass
+class _Found:
+    """What the search found: per image size (H, W), the labels and views of the images showing the board,
+    the labels of those that do not, and the labels of all, in order."""
+
+    images: dict[tuple[int, int], list[str]]
+    views: dict[tuple[int, int], list[tuple[str, BoardView]]]
+    without_board: dict[tuple[int, int], list[str]]
+
+
+def _find_views(images: Iterable[tuple[str, np.ndarray]], detector: BoardDetector, total: int | None) -> _Found:
+    """The board searched in every image; images grouped by their size (photos of another size than most,
+    e.g. cropped or re-saved by some tool, are skipped later rather than refusing the set)."""
+    found = _Found({}, {}, {})
     for label, image in progress(images, "finding the board", total, "image"):
-        if size_hw is None:
-            size_hw = image.shape[:2]
-        elif image.shape[:2] != size_hw:
-            raise FlowvoError(f"is {image.shape[1]}x{image.shape[0]}, the first image {size_hw[1]}x{size_hw[0]}: "
-                              "all views must come from one camera at one resolution", label)
-        seen += 1
+        size_hw = (int(image.shape[0]), int(image.shape[1]))
+        found.images.setdefault(size_hw, []).append(label)
         view = detector.detect(image)
-        if view is not None:
-            labels.append(label)
-            views.append(view)
-    if seen == 0:
+        if view is None:
+            found.without_board.setdefault(size_hw, []).append(label)
+        else:
+            found.views.setdefault(size_hw, []).append((label, view))
+    if not found.images:
         raise FlowvoError("no images to calibrate from")
-    return labels, views, size_hw, seen
+    return found
 
 
-def _check_view_count(distinct: int, found: int, seen: int, board: Board) -> None:
+def _majority_size(found: _Found) -> tuple[int, int]:
+    """The image size (H, W) of most views of the board (so a few odd photos never outvote the views that
+    can calibrate); a tie goes to the size of more images, then to the size seen first."""
+    sizes = list(found.images)  # in the order first seen
+    return max(sizes, key=lambda size: (len(found.views.get(size, ())), len(found.images[size]), -sizes.index(size)))
+
+
+def _size_warning(found: _Found, size_hw: tuple[int, int]) -> str | None:
+    """The warning naming the images skipped for their size, or None when all share ``size_hw``."""
+    skipped = [(label, size) for size, labels in found.images.items() if size != size_hw for label in labels]
+    if not skipped:
+        return None
+    seen = sum(len(labels) for labels in found.images.values())
+    names = ", ".join(f"{label} ({w}x{h})" for label, (h, w) in skipped[:MAX_NAMED])
+    more = f" and {len(skipped) - MAX_NAMED} more" if len(skipped) > MAX_NAMED else ""
+    return (f"{len(skipped)} of {seen} images skipped: their size differs from the {size_hw[1]}x{size_hw[0]} of "
+            f"the images used (intrinsics are in pixels of one resolution): {names}{more}")
+
+
+def named(labels: list[str] | tuple[str, ...], limit: int | None = None) -> str:
+    """``labels`` as one comma-separated list, at most ``limit`` (default :data:`MAX_NAMED`) of them named."""
+    limit = MAX_NAMED if limit is None else limit
+    more = f" and {len(labels) - limit} more" if len(labels) > limit else ""
+    return ", ".join(labels[:limit]) + more
+
+
+def _check_view_count(distinct: int, found: int, seen: int, board: Board, size_hw: tuple[int, int] | None,
+                      without_board: tuple[str, ...]) -> None:
+    """Refuse too few views. ``size_hw``: the size of the images used when others were skipped (None when all
+    share it); ``without_board``: the images where the board was not found (named when only a few)."""
+    images = f"{seen} images" + ("" if size_hw is None else f" of {size_hw[1]}x{size_hw[0]} (others skipped for "
+                                                          "their size)")
     if found == 0:
         hint = (" (inner corners: a board of 7x10 squares has 6x9)" if board.kind == "checkerboard" else
                 " (squares), --dictionary, --square and --marker")
-        raise FlowvoError(f"the board ({board.describe()}) was not found in any of the {seen} images: check "
+        raise FlowvoError(f"the board ({board.describe()}) was not found in any of the {images}: check "
                           f"--board, --rows and --cols{hint}")
     if found < MIN_VIEWS:
-        raise FlowvoError(f"the board was found in only {found} of {seen} images; calibration needs at least "
+        missing = f" (not in {named(without_board)})" if len(without_board) <= MAX_NAMED else ""
+        raise FlowvoError(f"the board was found in only {found} of {images}{missing}; calibration needs at least "
                           f"{MIN_VIEWS} views: show it from more positions and angles")
     if distinct < MIN_VIEWS:
-        raise FlowvoError(f"the board was found in {found} of {seen} images but from only {distinct} distinct "
+        raise FlowvoError(f"the board was found in {found} of {images} but from only {distinct} distinct "
                           f"positions (the others repeat them); calibration needs at least {MIN_VIEWS}: move and "
                           "tilt it between views")
 
@@ -197,18 +253,25 @@ def tilt_spread_deg(rotation_vectors: list[np.ndarray]) -> float:
     return float(np.degrees(np.arccos(cosines.min())))
 
 
-def _solve(views: list[BoardView], size_hw: tuple[int, int], model: str
+def _solve(views: list[BoardView], size_hw: tuple[int, int], model: str, unit_m: float
            ) -> tuple[np.ndarray, np.ndarray, list[tuple[np.ndarray, np.ndarray]]]:
-    """K (3, 3), the distortion coefficients and each view's (rotation vector, translation)."""
+    """K (3, 3), the distortion coefficients and each view's (rotation vector, translation in the board
+    frame's unit). The solvers work in units of squares (board points divided by ``unit_m``, one square's
+    length in the board frame's unit) and the translations are scaled back: OpenCV's solvers stop on a
+    change relative to all their parameters, translations included, so boards in kilometres or nanometres
+    stopped them early (a square of 1e6 put cy 12 px off on one set of views). Both boards' corners lie on
+    the squares' grid, so in squares they are whole numbers: rounded, the same whatever the unit (bit for
+    bit)."""
     size_wh = (int(size_hw[1]), int(size_hw[0]))
+    objects = [np.round(np.asarray(view.object_points, np.float64) / unit_m) for view in views]
     try:
         if model == "equidistant":
-            objects = [view.object_points.astype(np.float64).reshape(1, -1, 3) for view in views]
+            objects = [points.reshape(1, -1, 3) for points in objects]
             images = [view.image_points_px.astype(np.float64).reshape(1, -1, 2) for view in views]
             _, K, D, rvecs, tvecs = cv2.fisheye.calibrate(objects, images, size_wh, np.eye(3), np.zeros(4),
                                                           flags=_FLAGS[model])
         else:
-            objects = [view.object_points for view in views]
+            objects = [points.astype(np.float32) for points in objects]
             images = [view.image_points_px.reshape(-1, 1, 2) for view in views]
             _, K, D, rvecs, tvecs = cv2.calibrateCamera(objects, images, size_wh, None, None, flags=_FLAGS[model])
     except cv2.error as error:
@@ -217,7 +280,8 @@ def _solve(views: list[BoardView], size_hw: tuple[int, int], model: str
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(D)) and K[0, 0] > 0 and K[1, 1] > 0):
         raise FlowvoError(f"the {model} calibration did not converge (fx={K[0, 0]:g}, fy={K[1, 1]:g}): try more "
                           "varied views")
-    return K, D, list(zip(rvecs, tvecs, strict=True))
+    return K, D, [(rotation, np.asarray(translation, np.float64) * unit_m) for rotation, translation
+                  in zip(rvecs, tvecs, strict=True)]
 
 
 def _view_errors(view: BoardView, rotation: np.ndarray, translation: np.ndarray, K: np.ndarray, D: np.ndarray,

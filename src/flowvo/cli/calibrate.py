@@ -12,7 +12,7 @@ from flowvo.cli.arguments import POSITIVE_FLOAT, POSITIVE_INT, bounded, force_fl
 
 def command(args: argparse.Namespace) -> int:
     from flowvo.calibration.board import Board
-    from flowvo.calibration.calibrate import COEFFICIENT_NAMES, calibrate
+    from flowvo.calibration.calibrate import COEFFICIENT_NAMES, calibrate, named
     from flowvo.calibration.files import format_ros_calibration
     from flowvo.calibration.images import open_calibration_images, printable
     from flowvo.io.atomic import write_text_atomic
@@ -27,8 +27,12 @@ def command(args: argparse.Namespace) -> int:
     i, d = result.intrinsics, result.distortion
     h, w = result.image_size_hw
     print(f"board: {board.describe()}")
-    print(f"found in {result.views_found} of {result.images_seen} images; {result.views_used} distinct views used "
+    images = f"{result.images_seen} images" if not result.skipped_for_size else \
+        f"the {result.images_seen} {w}x{h} images ({len(result.skipped_for_size)} of another size skipped, see below)"
+    print(f"found in {result.views_found} of {images}; {result.views_used} distinct views used "
           f"(corners cover {result.coverage:.0%} of the image, board normals span {result.tilt_spread_deg:.0f} deg)")
+    if result.without_board:
+        print(f"board not found in {len(result.without_board)}: {named(result.without_board)}")
     print(f"fx {i.fx:.2f}  fy {i.fy:.2f}  cx {i.cx:.2f}  cy {i.cy:.2f}  (pixels of {w}x{h} frames)")
     if d.is_none:
         print("distortion: none")
