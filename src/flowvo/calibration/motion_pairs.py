@@ -7,6 +7,10 @@ the view, were occluded or failed the check); the start frame and the frame befo
 frame is taken whenever the newest chain has moved ``START_MOTION_PX``, so pairs overlap and adapt to the
 speed and the frame rate by themselves (a standing car starts no new chain). Pure functions over NumPy
 arrays; pixels of the frames given (x right, y down).
+
+Parts of the frame that do not move with the scene (the car's bonnet or dashboard) are found from the pairs
+themselves and left out (:func:`without_still_regions`): in the lower part of the frame a moving camera sees
+every point of the scene move.
 """
 
 from __future__ import annotations
@@ -15,7 +19,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import binary_dilation
 
+from flowvo.odometry.still_regions import STILL_SHARE, StillRegions
 from flowvo.odometry.two_view import textured_points, track_points_checked
 
 CHAIN_POINTS = 1500  # textured points per start frame: at 620 px wide nearly every 8 px cell of the frame
@@ -29,6 +35,9 @@ START_MOTION_PX = 40.0  # a new chain starts when the newest has moved this far 
 # 20 px gave on the KITTI clips, with estimates within 1 % of those)
 MIN_PAIR_POINTS = 60  # fewer correspondences cannot tell a focal length from noise
 MIN_PAIR_MOTION_PX = 5.0  # a pair whose points moved less than this shows no usable motion
+STILL_TRACKS_FROM = 0.25  # frame heights below the centre: from there down parts of the frame are judged for
+# standing still (as the default method judges its tracks, methods/flowvo.py): the real dash-cam's bonnet held
+# a third of the tracks of its turning frame pairs, moving 0.5-1.4 px (median)
 
 
 @dataclass(frozen=True)
@@ -103,3 +112,26 @@ def _moved_px(chain: _Chain) -> float:
     if not len(chain.start_px):
         return 0.0
     return float(np.percentile(np.linalg.norm(chain.current_px - chain.start_px, axis=1), MOTION_PERCENTILE))
+
+
+def without_still_regions(pairs: list[PointPair], image_size_hw: tuple[int, int], scale_px: float = 1.0
+                          ) -> tuple[list[PointPair], float]:
+    """The pairs without their points in the parts of the frame that do not move with the scene, and the
+    share of the frame's cells found so. The cells are judged as the default method judges its tracks
+    (:class:`flowvo.odometry.still_regions.StillRegions`, each pair one observation: its points' motion against
+    their median; from ``STILL_TRACKS_FROM`` frame heights below the centre down, at half the road's share),
+    widened by a cell; a pair left with too few points is dropped. ``scale_px`` as for :func:`motion_pairs`."""
+    h = image_size_hw[0]
+    regions = StillRegions(image_size_hw, (h - 1) / 2.0 + STILL_TRACKS_FROM * h, scale_px, STILL_SHARE / 2)
+    for pair in pairs:
+        regions.observe(pair.first_px, np.linalg.norm(pair.second_px - pair.first_px, axis=1))
+    if not regions.still_cells:
+        return pairs, 0.0
+    regions.still = binary_dilation(regions.still.reshape(regions.shape)).ravel()  # and the cells next to them:
+    # the edge of a bonnet, whose cells hold some scene too
+    kept = []
+    for pair in pairs:
+        keep = regions.keep(pair.first_px) & regions.keep(pair.second_px)
+        if keep.sum() >= MIN_PAIR_POINTS:
+            kept.append(PointPair(pair.first, pair.second, pair.first_px[keep], pair.second_px[keep]))
+    return kept, regions.still_cells / regions.still.size

@@ -85,7 +85,7 @@ def open_drive(options: RunOptions) -> Drive:
     if options.video and given.intrinsics is None:
         from flowvo.calibration.estimated_camera import estimate_camera
 
-        estimated = estimate_camera(source, where)
+        estimated = estimate_camera(source, where, distortion=given.distortion)  # a given lens (--dist) is used
     own_camera = estimated.camera if estimated else source.camera
     return Drive(source, drive_camera(given, own_camera, source.image_size_hw, where, source.camera_height_m,
                                       source.camera_pitch_deg),
