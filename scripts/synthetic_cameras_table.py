@@ -1,10 +1,14 @@
 """Print the synthetic-cameras table: the default method on one synthetic world and drive seen by KITTI's
 camera and by other cameras (each change alone, then all together), t_err and the estimated path length
-against the truth. The last rows: a camera pitched down, told so by its calib.txt, and run as if level.
+against the truth, and the road planes trusted and refused as tilted. Then cameras pitched down or up, told so by
+their calib.txt, and run as if level; a bonnet; a strong barrel lens; and a dash-cam (bonnet, pitched 3 degrees
+down, that lens, 1.3 m high, 25 frames/s), told its pitch, then not told: run as if level, then given the pitch
+that run advises, to see whether the advice settles.
 
 Usage: python scripts/synthetic_cameras_table.py OUT_DIR [--frames 300] [--seed 3] [--scale 0.5]
-       [--max-speed 12] [--lengths 25 50 75 100]
-(renders into OUT_DIR/camera_N/data and runs flowvo into OUT_DIR/camera_N/run)
+       [--max-speed 12] [--lengths 25 50 75 100] [--rows 0 8 9]
+(renders into OUT_DIR/camera_N/data and runs flowvo into OUT_DIR/camera_N/run; rows sharing a camera share its
+render; row 0, KITTI's camera, is always run: the last column's reference)
 """
 
 import argparse
@@ -16,9 +20,14 @@ from flowvo.drive.run import run
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics.kitti_odometry import trajectory_distances
 from flowvo.synth.dataset import synthesize
-from flowvo.synth.synth_camera import SynthCamera
+from flowvo.synth.frame_rate import frames_spanning
+from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera
 
 BARREL = LensDistortion("plumb_bob", (-0.25, 0.05, 0.0, 0.0))
+STRONG_BARREL = LensDistortion("plumb_bob", (-0.35, 0.1, 0.0, 0.0))
+BONNET_ROWS = 0.08  # the real dash-cam's bonnet covers its rows from about 664 of 720 (its README)
+DASH_CAM = SynthCamera(height_m=1.3, distortion=STRONG_BARREL, fps=25.0, pitch_deg=3.0, bonnet_rows=BONNET_ROWS)
+NOT_TOLD = "the dash-cam, pitch not told (run as if level)"
 CAMERAS = {
     "KITTI (1.65 m, 81.6 deg, pinhole, 10 fps)": SynthCamera(),
     "height 1.2 m": SynthCamera(height_m=1.2),
@@ -28,9 +37,15 @@ CAMERAS = {
     "all four": SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL, fps=30.0),
     "pitched 8 deg down": SynthCamera(pitch_deg=8.0),
     "pitched 8 deg down, run as if level (--camera-pitch 0)": SynthCamera(pitch_deg=8.0),
+    f"bonnet {BONNET_ROWS:g} of the height": SynthCamera(bonnet_rows=BONNET_ROWS),
+    "pitched 3 deg down (told)": SynthCamera(pitch_deg=3.0),
+    "pitched 5 deg up (told)": SynthCamera(pitch_deg=-5.0),
+    "barrel k1 -0.35 k2 0.1 (told)": SynthCamera(distortion=STRONG_BARREL),
+    "the dash-cam: bonnet, 3 deg down, k1 -0.35 k2 0.1, 1.3 m, 25 fps (told all)": DASH_CAM,
+    NOT_TOLD: DASH_CAM,
 }
-TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0}  # run options that override the
-# camera's calib.txt
+TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0, NOT_TOLD: 0.0}  # run options that
+# override the camera's calib.txt
 
 
 def main() -> None:
@@ -41,25 +56,49 @@ def main() -> None:
     parser.add_argument("--scale", type=float, default=0.5)
     parser.add_argument("--max-speed", type=float, default=12.0, help="top speed of the generated drive, m/s")
     parser.add_argument("--lengths", type=float, nargs="+", default=[25.0, 50.0, 75.0, 100.0])
+    parser.add_argument("--rows", type=int, nargs="+", help="only these rows (0-based; row 0 always)")
     args = parser.parse_args()
-    print(f"seed {args.seed}, {args.frames / 10:g} s drive, scale {args.scale:g}, sub-paths "
+    print(f"seed {args.seed}, {(args.frames - 1) / PATH_RATE_HZ:g} s drive, scale {args.scale:g}, sub-paths "
           f"{' '.join(f'{m:g}' for m in args.lengths)} m")
-    print("| camera | frames | t_err % | r_err deg/m | path length vs truth | t_err / KITTI camera's |")
-    print("| --- | --- | --- | --- | --- | --- |")
-    reference = None
+    print("| camera | frames | t_err % | r_err deg/m | path length vs truth | t_err / KITTI camera's "
+          "| road planes trusted / refused as tilted | pitch advised |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+    rows = set(args.rows or range(len(CAMERAS))) | {0}
+    reference, rendered = None, {}
     for index, (label, camera) in enumerate(CAMERAS.items()):
-        root = args.out / f"camera_{index}" / "data"
-        frames = (args.frames - 1) * round(camera.fps / 10) + 1  # the same drive (fps is a multiple of 10 here)
-        synthesize(root, ["00"], seed=args.seed, frames=frames, scale=args.scale, max_speed_mps=args.max_speed,
-                   camera=camera, force=True)
-        summary = run(RunOptions(out=str(root.parent / "run"), data=str(root), sequence="00",
-                                 lengths_m=tuple(args.lengths), force=True, camera_pitch_deg=TOLD_PITCH_DEG.get(label)))
-        metrics = summary["metrics"]
-        truth = trajectory_distances(read_kitti_poses(root / "poses" / "00.txt").positions)[-1]
-        length = trajectory_distances(read_kitti_poses(root.parent / "run" / "00.txt").positions)[-1]
-        reference = reference or metrics["t_err_percent"]
-        print(f"| {label} | {summary['frames']} | {metrics['t_err_percent']:.2f} | {metrics['r_err_deg_per_m']:.4f} "
-              f"| {100 * (length / truth - 1):+.1f} % of {truth:.0f} m | {metrics['t_err_percent'] / reference:.2f}x |")
+        if index not in rows:
+            continue
+        root = rendered.get(camera, args.out / f"camera_{index}" / "data")
+        if camera not in rendered:
+            synthesize(root, ["00"], seed=args.seed, frames=frames_spanning(args.frames, PATH_RATE_HZ, camera.fps),
+                       scale=args.scale, max_speed_mps=args.max_speed, camera=camera, force=True)  # the same drive
+            rendered[camera] = root
+        out = args.out / f"camera_{index}" / "run"
+        pitch_deg = TOLD_PITCH_DEG.get(label)
+        summary = run(RunOptions(out=str(out), data=str(root), sequence="00", lengths_m=tuple(args.lengths),
+                                 force=True, camera_pitch_deg=pitch_deg))
+        reference = reference or summary["metrics"]["t_err_percent"]
+        print(_row(label, summary, root, out, reference))
+        advice_deg = summary["road_planes"]["tilted_median_pitch_deg"]
+        if label == NOT_TOLD and advice_deg is not None:  # given the advice: does it settle?
+            advised_deg = round((pitch_deg or 0.0) + advice_deg, 1)
+            out = args.out / f"camera_{index}" / "run_advised"
+            summary = run(RunOptions(out=str(out), data=str(root), sequence="00", lengths_m=tuple(args.lengths),
+                                     force=True, camera_pitch_deg=advised_deg))
+            print(_row(f"the dash-cam, given the advice (--camera-pitch {advised_deg:g})", summary, root, out,
+                       reference))
+
+
+def _row(label: str, summary: dict, root: Path, out: Path, reference: float) -> str:
+    """One table row: the run's scores against the truth, its road planes and the pitch it advises (or none)."""
+    metrics, planes = summary["metrics"], summary["road_planes"]
+    truth = trajectory_distances(read_kitti_poses(root / "poses" / "00.txt").positions)[-1]
+    length = trajectory_distances(read_kitti_poses(out / "00.txt").positions)[-1]
+    hint = planes["tilted_median_pitch_deg"]
+    advice = "none" if hint is None else f"--camera-pitch {summary['camera']['camera_pitch_deg'] + hint:.1f}"
+    return (f"| {label} | {summary['frames']} | {metrics['t_err_percent']:.2f} | {metrics['r_err_deg_per_m']:.4f} "
+            f"| {100 * (length / truth - 1):+.1f} % of {truth:.0f} m | {metrics['t_err_percent'] / reference:.2f}x "
+            f"| {planes['trusted']} / {planes['refused_as_tilted']} | {advice} |")
 
 
 if __name__ == "__main__":

@@ -13,10 +13,11 @@ from flowvo.drive.options import RunOptions, open_drive
 from flowvo.drive.run import run
 from flowvo.errors import FlowvoError
 from flowvo.kitti.sequence import KittiSequence
+from flowvo.synth.bonnet import bonnet_mask
 from flowvo.synth.camera_path import generate_path
-from flowvo.synth.dataset import sequence_seed, synthesize
+from flowvo.synth.dataset import plan_sequence, sequence_seed, synthesize
 from flowvo.synth.render import pixel_rays, render
-from flowvo.synth.sequence_writer import intrinsics
+from flowvo.synth.sequence_writer import intrinsics, spec_digest
 from flowvo.synth.synth_camera import SynthCamera
 from flowvo.synth.textures import make_textures
 from flowvo.synth.world import build_world
@@ -106,6 +107,48 @@ def test_lens_that_folds_over_the_image_is_refused(tmp_path, capsys):
     code = main(["synth", "--out", str(tmp_path / "cli"), "--frames", "2", "--scale", "0.1", "--fov", "120",
                  "--distortion", "-0.5", "0", "0", "0"])
     assert code == 2 and "one-to-one" in capsys.readouterr().err
+    assert not (tmp_path / "cli").exists()
+
+
+def _frames(root) -> np.ndarray:
+    """Every frame (F, H, W) uint8 of sequence 00 under ``root``."""
+    sequence = KittiSequence(root, "00")
+    return np.stack([sequence.read_image(i) for i in range(len(sequence))])
+
+
+def test_bonnet_stands_still_in_every_frame_and_leaves_the_rest_of_the_render_as_without_it(tmp_path):
+    camera = SynthCamera(height_m=1.3, pitch_deg=3.0, bonnet_rows=0.1)
+    synthesize(tmp_path / "bonnet", ["00"], seed=2, frames=4, scale=0.2, workers=1, camera=camera)
+    synthesize(tmp_path / "none", ["00"], seed=2, frames=4, scale=0.2, workers=1,
+               camera=SynthCamera(height_m=1.3, pitch_deg=3.0))
+    with_bonnet, without = _frames(tmp_path / "bonnet"), _frames(tmp_path / "none")
+    mask = bonnet_mask(with_bonnet.shape[1:], 0.1)
+    h, w = mask.shape
+    assert mask[-1].all() and not mask[: h - int(0.1 * h) - 1].any()  # the bottom rows, no higher
+    assert mask[:, w // 2].sum() > mask[:, 0].sum()  # its top edge curves: highest in the middle
+    assert (with_bonnet[:, mask] == with_bonnet[0, mask]).all()  # fixed to the camera: the same in every frame
+    assert not (without[:, mask] == without[0, mask]).all()  # where the road moves under it
+    assert with_bonnet[0, mask].std() > 5  # textured paint, for still points to be found on it
+    assert (with_bonnet[:, ~mask] == without[:, ~mask]).all()  # the scene unchanged around it
+    record = json.loads((tmp_path / "bonnet/sequences/00/synthetic.json").read_text())["camera"]
+    assert record["bonnet_rows"] == 0.1
+
+
+def test_no_bonnet_is_the_camera_and_render_record_as_before_the_option():
+    assert SynthCamera(bonnet_rows=0.0).is_kitti and "bonnet_rows" not in SynthCamera().record()
+    plain, bonnet = (plan_sequence("00", 2, 4, None, 0.2, None, False, camera=SynthCamera(pitch_deg=3.0,
+                                                                                          bonnet_rows=share))
+                     for share in (0.0, 0.1))
+    assert repr(plain.camera) == repr(bonnet.camera)  # so renders of earlier cameras keep their digest and resume
+    assert spec_digest(plain) != spec_digest(bonnet)
+
+
+def test_bonnet_share_out_of_range_is_refused(tmp_path, capsys):
+    with pytest.raises(FlowvoError, match="--bonnet"):
+        SynthCamera(bonnet_rows=0.7)
+    with pytest.raises(SystemExit) as stopped:
+        main(["synth", "--out", str(tmp_path / "cli"), "--frames", "2", "--bonnet", "0.6"])
+    assert stopped.value.code == 2 and "--bonnet: 0.6 is outside" in capsys.readouterr().err
     assert not (tmp_path / "cli").exists()
 
 

@@ -13,7 +13,7 @@ def command(args: argparse.Namespace) -> int:
     from flowvo.synth.synth_camera import SynthCamera
 
     camera = SynthCamera(args.camera_height, args.fov, LensDistortion(args.distortion_model, tuple(args.distortion)),
-                         args.fps, args.camera_pitch)
+                         args.fps, args.camera_pitch, bonnet_rows=args.bonnet)
     folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
                          args.scene, args.gt_flow, args.workers, args.max_speed, args.force, camera)
     for folder in folders:
@@ -23,6 +23,7 @@ def command(args: argparse.Namespace) -> int:
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG
+    from flowvo.synth.bonnet import MAX_BONNET_ROWS
     from flowvo.synth.synth_camera import PATH_RATE_HZ
     from flowvo.synth.world import SCENE_TYPES
 
@@ -50,6 +51,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help="lens model of --distortion (default plumb_bob)")
     camera.add_argument("--fps", type=bounded(float, 1.0, 120.0), default=PATH_RATE_HZ, metavar="HZ",
                         help="frame rate: the same drive sampled at HZ (default 10, KITTI's); times.txt follows")
+    camera.add_argument("--bonnet", type=bounded(float, 0.0, MAX_BONNET_ROWS), default=0.0, metavar="SHARE",
+                        help="a car's bonnet, fixed to the camera, over the bottom SHARE of the image height (its top "
+                             "edge curves a little; e.g. 0.08; default 0: none)")
     p.add_argument("--workers", type=bounded(int, 1, 64), help="render processes (default: all cores, at most 8)")
     p.add_argument("--max-speed", type=bounded(float, 0.0, 100.0, low_open=True), default=25.0,
                    help="generated paths: top speed in m/s")

@@ -23,6 +23,7 @@ from flowvo.kitti.calib import Calibration, format_calibration
 from flowvo.kitti.poses import write_kitti_poses
 from flowvo.progress import progress
 from flowvo.projection import flow_from_depth, occlusion_mask
+from flowvo.synth.bonnet import Bonnet, make_bonnet
 from flowvo.synth.frame_rate import frames_spanning, resample_poses
 from flowvo.synth.render import PixelRays, pixel_rays, render
 from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera
@@ -72,6 +73,8 @@ def spec_digest(spec: SynthSpec) -> str:
     digest.update(repr((spec.seed, float(spec.scale), spec.scene, spec.gt_flow)).encode())
     if not spec.camera.is_kitti:
         digest.update(repr((spec.camera, spec.frames)).encode())
+    if spec.camera.bonnet_rows:
+        digest.update(f"bonnet {spec.camera.bonnet_rows!r}".encode())
     return digest.hexdigest()
 
 
@@ -101,19 +104,20 @@ def kitti_calibration(K: np.ndarray, camera: SynthCamera | None = None) -> Calib
 _worker_state: dict = {}
 
 
-def _init_worker(world: World, seed: int, rays: PixelRays) -> None:
-    _worker_state.update(world=world, textures=make_textures(seed), rays=rays)
+def _init_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None) -> None:
+    _worker_state.update(world=world, textures=make_textures(seed), rays=rays, bonnet=bonnet)
 
 
 def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     state = _worker_state
-    return render(state["world"], state["textures"], pose, state["rays"])
+    image, depth = render(state["world"], state["textures"], pose, state["rays"])
+    return (image, depth) if state["bonnet"] is None else state["bonnet"].paint(image, depth)
 
 
-def _init_pool_worker(world: World, seed: int, rays: PixelRays) -> None:
+def _init_pool_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None) -> None:
     """A render process: Ctrl-C is left to the parent, which stops the pool and reports one line."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _init_worker(world, seed, rays)
+    _init_worker(world, seed, rays, bonnet)
 
 
 def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | None = None) -> Path:
@@ -137,6 +141,7 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
     })
     world = build_world(spec.T_world_cam, spec.seed, spec.scene, camera.height_m)
     rays = pixel_rays(K, size, camera.distortion)
+    bonnet = make_bonnet(size, camera.bonnet_rows, K, spec.seed) if camera.bonnet_rows else None
     todo = [i for i in range(len(poses)) if not (image_dir / f"{i:06d}.png").exists()]
     if spec.gt_flow:
         todo = list(range(len(poses)))  # depth of every frame is needed for the flow
@@ -146,10 +151,10 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
         if workers > 1 and len(frames) > 4:
             # spawn, not fork: a forked child inherits OpenCV's thread pool in a locked state and hangs
             context = multiprocessing.get_context("spawn")
-            pool = stack.enter_context(context.Pool(workers, _init_pool_worker, (world, spec.seed, rays)))
+            pool = stack.enter_context(context.Pool(workers, _init_pool_worker, (world, spec.seed, rays, bonnet)))
             results = pool.imap(_render_one, frames, chunksize=2)
         else:
-            _init_worker(world, spec.seed, rays)
+            _init_worker(world, spec.seed, rays, bonnet)
             results = map(_render_one, frames)
         previous = None
         for i, (image, depth) in progress(zip(todo, results, strict=True), f"render {name}", len(todo), "frame"):
@@ -157,16 +162,23 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
                 cv2.imwrite(str(tmp), image)
             if spec.gt_flow:
                 if previous is not None:
-                    _write_gt_flow(directory, i - 1, previous, depth, poses, K, camera.distortion)
+                    _write_gt_flow(directory, i - 1, previous, depth, poses, K, camera.distortion,
+                                   None if bonnet is None else bonnet.mask)
                 previous = depth
     return directory
 
 
 def _write_gt_flow(directory: Path, index: int, depth: np.ndarray, depth_next: np.ndarray,
-                   T_world_cam: np.ndarray, K: np.ndarray, distortion: LensDistortion) -> None:
+                   T_world_cam: np.ndarray, K: np.ndarray, distortion: LensDistortion,
+                   still: np.ndarray | None = None) -> None:
+    """True flow from frame ``index`` to the next; pixels of ``still`` (H, W) bool (a bonnet, fixed to the camera)
+    do not move, and the scene moving under them is occluded where it reaches them."""
     T_next_cur = invert_se3(T_world_cam[index + 1]) @ T_world_cam[index]
     flow, next_depth = flow_from_depth(depth, K, T_next_cur, distortion)
     occluded = occlusion_mask(flow, next_depth, depth_next)
+    if still is not None:
+        flow[still] = 0.0
+        occluded[still] = False
     flow_dir = directory / "flow_gt"
     flow_dir.mkdir(exist_ok=True)
     with atomic_path(flow_dir / f"{index:06d}.npy") as tmp:

@@ -1,4 +1,5 @@
-"""The camera ``flowvo synth`` renders through: height above the road, field of view, lens, frame rate.
+"""The camera ``flowvo synth`` renders through: height above the road, field of view, lens, frame rate, pitch,
+and a car's bonnet in its bottom rows.
 
 The defaults are KITTI's left grey camera (1.65 m, fx 718.856 px over 1241 px, no distortion, 10 Hz) and
 leave renders byte-identical to the renderer before these options existed.
@@ -22,6 +23,7 @@ from flowvo.camera import (
     undistort_points,
 )
 from flowvo.errors import FlowvoError
+from flowvo.synth.bonnet import MAX_BONNET_ROWS
 from flowvo.synth.camera_path import FRAME_PERIOD_S
 
 PATH_RATE_HZ = 1.0 / FRAME_PERIOD_S  # generated and replayed (KITTI) paths are sampled at 10 Hz
@@ -35,13 +37,16 @@ LENS_CHECK_SAMPLES = 200  # points per centre-to-corner line of the one-to-one c
 class SynthCamera:
     """``height_m`` above the road (metres), horizontal field of view ``fov_deg`` (degrees over the image
     width; None = KITTI's focal length, ~81.6 deg), lens ``distortion``, frame rate ``fps`` (Hz) and
-    ``pitch_deg``, how far the camera is pitched down from level (degrees)."""
+    ``pitch_deg``, how far the camera is pitched down from level (degrees), and ``bonnet_rows``, the share of the
+    image height a static bonnet covers at the bottom (0: none; :mod:`flowvo.synth.bonnet`)."""
 
     height_m: float = KITTI_CAMERA_HEIGHT_M
     fov_deg: float | None = None
     distortion: LensDistortion = field(default=NO_DISTORTION)
     fps: float = PATH_RATE_HZ
     pitch_deg: float = 0.0
+    bonnet_rows: float = field(default=0.0, repr=False)  # out of the repr, so that the digests of renders made
+    # before the bonnet existed stay the same (spec_digest adds it when there is one)
 
     def __post_init__(self) -> None:
         check_camera_height(self.height_m, "--camera-height")
@@ -51,6 +56,9 @@ class SynthCamera:
                               f"[{FOV_RANGE_DEG[0]:g}, {FOV_RANGE_DEG[1]:g}] degrees")
         if not FPS_RANGE_HZ[0] <= self.fps <= FPS_RANGE_HZ[1]:
             raise FlowvoError(f"--fps {self.fps:g}: use a frame rate in [{FPS_RANGE_HZ[0]:g}, {FPS_RANGE_HZ[1]:g}] Hz")
+        if not 0.0 <= self.bonnet_rows <= MAX_BONNET_ROWS:
+            raise FlowvoError(f"--bonnet {self.bonnet_rows:g}: use a share of the image height in "
+                              f"[0, {MAX_BONNET_ROWS:g}]")
 
     @property
     def is_kitti(self) -> bool:
@@ -71,11 +79,12 @@ class SynthCamera:
         return T
 
     def record(self) -> dict:
-        """The camera as ``synthetic.json`` records it (the pitch when it has one: renders of level cameras
-        made before the option keep their record, and resume)."""
+        """The camera as ``synthetic.json`` records it (the pitch and the bonnet when it has them: renders of
+        level cameras without a bonnet made before the options keep their record, and resume)."""
         pitch = {"pitch_deg": self.pitch_deg} if self.pitch_deg else {}
+        bonnet = {"bonnet_rows": self.bonnet_rows} if self.bonnet_rows else {}
         return {"camera_height_m": self.height_m, "fov_deg": self.fov_deg, "distortion_model": self.distortion.model,
-                "distortion": list(self.distortion.coefficients), "fps": self.fps, **pitch}
+                "distortion": list(self.distortion.coefficients), "fps": self.fps, **pitch, **bonnet}
 
 
 def check_lens(distortion: LensDistortion, K: np.ndarray, size_hw: tuple[int, int]) -> None:
