@@ -10,6 +10,7 @@ import pytest
 SHARED = Path(__file__).resolve().parents[1].parent / "shared"
 KITTI_POSES = SHARED / "data" / "kitti" / "poses"
 EXAMPLE_RESULTS = SHARED / "data" / "kitti" / "example_results"
+REAL_CLIPS = SHARED / "data" / "real" / "kitti_clips"
 
 
 @pytest.fixture
@@ -24,6 +25,20 @@ def example_results_dir() -> Path:
     if not EXAMPLE_RESULTS.is_dir():
         pytest.skip(f"shared example results not found at {EXAMPLE_RESULTS}")
     return EXAMPLE_RESULTS
+
+
+@pytest.fixture(scope="session")
+def real_clips() -> Path:
+    """The real KITTI clips' root (validation data, never trained on)."""
+    if not (REAL_CLIPS / "sequences" / "06" / "image_0").is_dir():
+        pytest.skip(f"real KITTI clips not found at {REAL_CLIPS}")
+    return REAL_CLIPS
+
+
+@pytest.fixture(scope="session")
+def clip_06(real_clips) -> Path:
+    """Real clip 06's sequence folder (50 frames, 59 m, straight suburban road)."""
+    return real_clips / "sequences" / "06"
 
 
 @pytest.fixture(autouse=True, scope="session")

@@ -6,24 +6,14 @@ sub-paths, r_err 0.0164 deg/m, path length -1.3 %; the bounds leave room for pla
 
 import json
 import math
-from pathlib import Path
 
 import pytest
 
 from flowvo.cli import main
 
-CLIPS = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "real" / "kitti_clips"
 
-
-@pytest.fixture(scope="module")
-def clips() -> Path:
-    if not (CLIPS / "sequences" / "06").is_dir():
-        pytest.skip(f"real KITTI clips not found at {CLIPS}")
-    return CLIPS
-
-
-def test_default_method_is_accurate_on_real_clip_06(clips, tmp_path):
-    assert main(["-q", "run", "--data", str(clips), "--sequence", "06", "--out", str(tmp_path),
+def test_default_method_is_accurate_on_real_clip_06(real_clips, tmp_path):
+    assert main(["-q", "run", "--data", str(real_clips), "--sequence", "06", "--out", str(tmp_path),
                  "--lengths", "10", "20", "30", "40"]) == 0
     metrics = json.loads((tmp_path / "eval_06" / "metrics.json").read_text())
     summary = json.loads((tmp_path / "run.json").read_text())
@@ -32,7 +22,7 @@ def test_default_method_is_accurate_on_real_clip_06(clips, tmp_path):
     assert metrics["t_err_percent"] < 3.5
     assert metrics["r_err_deg_per_m"] < 0.03
     poses = [list(map(float, line.split())) for line in (tmp_path / "06.txt").read_text().splitlines()]
-    gt = [list(map(float, line.split())) for line in (clips / "poses" / "06.txt").read_text().splitlines()]
+    gt = [list(map(float, line.split())) for line in (real_clips / "poses" / "06.txt").read_text().splitlines()]
 
     def length(rows):
         return sum(((a[3] - b[3]) ** 2 + (a[7] - b[7]) ** 2 + (a[11] - b[11]) ** 2) ** 0.5
@@ -50,9 +40,9 @@ def test_default_method_is_accurate_on_real_clip_06(clips, tmp_path):
     assert sum(within) >= 0.9 * len(within)
 
 
-def test_tum_file_carries_the_clip_times(clips, tmp_path):
-    assert main(["-q", "run", "--data", str(clips), "--sequence", "07", "--out", str(tmp_path),
+def test_tum_file_carries_the_clip_times(real_clips, tmp_path):
+    assert main(["-q", "run", "--data", str(real_clips), "--sequence", "07", "--out", str(tmp_path),
                  "--max-frames", "5", "--method", "classical"]) == 0
     stamps = [float(line.split()[0]) for line in (tmp_path / "07.tum").read_text().splitlines()]
-    times = [float(line) for line in (clips / "sequences" / "07" / "times.txt").read_text().split()[:5]]
+    times = [float(line) for line in (real_clips / "sequences" / "07" / "times.txt").read_text().split()[:5]]
     assert stamps == pytest.approx(times, abs=1e-9)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 from flowvo.cli.arguments import FRAME_COUNT, SUB_PATH_M, force_flag
 from flowvo.cli.drive_options import add_drive_options, run_options
@@ -17,7 +18,15 @@ def command(args: argparse.Namespace) -> int:
     options = run_options(args, args.out)
     options.mcap, options.frame_id, options.child_frame_id = args.mcap, args.frame_id, args.child_frame_id
     options.force, options.lengths_m = args.force, tuple(sorted(set(args.lengths)))
-    summary = run(options)
+    if args.rerun or args.rerun_save:
+        from flowvo.api.rerun import RerunLogger
+
+        with RerunLogger(spawn=args.rerun, save=args.rerun_save, force=args.force, dataset=args.data) as view:
+            summary = run(options, view)
+        if args.rerun_save:
+            print(f"rerun: {args.rerun_save}")
+    else:
+        summary = run(options)
     print(f"{summary['label']} on {summary['sequence']}" + (" (synthetic)" if summary["synthetic"] else ""))
     if "estimate" in summary["camera"]:
         print(_estimate_line(summary["camera"]))
@@ -30,12 +39,17 @@ def command(args: argparse.Namespace) -> int:
               f"{pitch + hint:.1f} (docs/camera.md)")
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
+    print(drive_line(summary["drive"]))
     if summary.get("steps"):
         kinds = summary["scale_window"]["steps_measured_by"]
         print(f"steps: {args.out}/{summary['steps']}  (measured by " + ", ".join(
             f"{kind} {count}" for kind, count in sorted(kinds.items(), key=lambda item: -item[1])) + ")")
         if warning := _unscaled_warning(summary, args.out):
             print(warning)
+    if limit := summary.get("speed_limit", {}).get("refused_measurements"):
+        max_speed_mps = summary["speed_limit"]["max_speed_mps"]
+        print(f"note: {limit} measured speeds were refused as faster than {max_speed_mps:.1f} m/s (45 for a camera "
+              "1.65 m high, in proportion to the height; less soon after a standstill)")
     if "mcap" in summary:
         print(f"mcap: {args.out}/{summary['mcap']}")
     if "metrics" in summary:
@@ -61,8 +75,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                                                         "always on for --bag")
     p.add_argument("--frame-id", default="odom", help="MCAP parent frame id")
     p.add_argument("--child-frame-id", default="camera_optical", help="MCAP child frame id")
+    p.add_argument("--rerun", action="store_true", help="watch it live in the Rerun viewer (spawned): the frame, "
+                   "tracked points, road, the path in 3-D, speed and what measured each step (the rerun extra)")
+    p.add_argument("--rerun-save", metavar="FILE.rrd", help="record the same view to an .rrd file (rerun FILE.rrd)")
     force_flag(p, "this drive's earlier result in --out (poses, timing, run.json, eval_NAME/, NAME.mcap)")
     p.set_defaults(func=command)
+
+
+def drive_line(drive: dict) -> str:
+    """A drive summary (:func:`flowvo.report.drive_summary.drive_summary`) in one line."""
+    return (f"drive: {drive['distance_m']:.1f} m in {drive['duration_s']:.1f} s, mean speed "
+            f"{drive['mean_speed_mps']:.1f} m/s ({3.6 * drive['mean_speed_mps']:.0f} km/h), top "
+            f"{drive['top_speed_mps']:.1f} m/s ({3.6 * drive['top_speed_mps']:.0f} km/h, over 1 s), heading change "
+            f"{drive['heading_change_deg']:+.1f} deg (left +)")
 
 
 def _camera_line(summary: dict) -> str:
@@ -75,16 +100,33 @@ def _camera_line(summary: dict) -> str:
         height += " (KITTI's)" if camera["source"] == "kitti" else \
             " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
     pitch = f", pitched {camera['camera_pitch_deg']:g} deg down" if camera["camera_pitch_deg"] else ""
+    scaled = "" if "scaled_from_image_size" not in camera else \
+        " (scaled to the frames from the calibration's {}x{} images)".format(*camera["scaled_from_image_size"])
     return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "
-            f"cy {camera['cy']:.1f}, {distortion}, height {height}{pitch}")
+            f"cy {camera['cy']:.1f}{scaled}, {distortion}, height {height}{pitch}")
 
 
 def _estimate_line(camera: dict) -> str:
-    """The focal length estimated from the motion, and the flags that give it next time, in one line."""
+    """The focal length (and lens) estimated from the motion, and the flags that give them next time, in one
+    line; pixels of the frames as decoded."""
     estimate = camera["estimate"]
-    return (f"estimated focal length {estimate['focal_px']:.0f} px (+- {100 * estimate['relative_uncertainty']:.1f} %) "
-            f"from {estimate['pairs_used']} frame pairs in the first {estimate['frames']} frames; next time pass "
-            f"--fx {camera['fx']:.1f} --fy {camera['fy']:.1f} --cx {camera['cx']:.1f} --cy {camera['cy']:.1f}")
+    focal_px, sigma = estimate["focal_px"], estimate["relative_uncertainty"]
+    width, height = estimate["image_size"]
+    lens, flags = estimate.get("lens"), ""
+    if not estimate.get("lens_estimated", False):
+        found = "through the lens given"
+    elif lens is None or lens["distortion_model"] == "none":
+        found = "no lens distortion found"
+    else:
+        found = f"lens distortion found (division model {lens['lambda']:+.3f} +- {lens['lambda_uncertainty']:.3f})"
+        model = "" if lens["distortion_model"] == "plumb_bob" else f" --distortion-model {lens['distortion_model']}"
+        flags = f"{model} --dist {' '.join(f'{k:.6g}' for k in lens['distortion'])}"
+    low_px, high_px = focal_px * math.exp(-2 * sigma), focal_px * math.exp(2 * sigma)  # sigma: of log f
+    return (f"estimated focal length {focal_px:.0f} px (+- {100 * sigma:.1f} % at 1 sigma: {low_px:.0f}-"
+            f"{high_px:.0f} px at 2 sigma), {found}, from {estimate['pairs_used']} frame pairs in "
+            f"the first {estimate['frames']} frames, in pixels of the {width}x{height} frames as decoded; next time "
+            f"pass --fx {camera['fx']:.1f} --fy {camera['fy']:.1f} --cx {camera['cx']:.1f} --cy {camera['cy']:.1f}"
+            + flags)
 
 
 def _unscaled_warning(summary: dict, out: str) -> str | None:

@@ -9,6 +9,7 @@ ground truth, ``eval_NAME/`` (as ``flowvo eval`` writes it).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -22,50 +23,104 @@ from flowvo.io.outputs import claim_output_dir, run_outputs, staged_outputs, ste
 from flowvo.kitti.poses import write_kitti_poses, write_tum_trajectory
 from flowvo.methods.base import OdometryStep
 from flowvo.odometry.covariance import records_covariances
+from flowvo.report.drive_summary import drive_summary
 from flowvo.report.evaluation import evaluate, save_evaluation
 from flowvo.trajectory import Trajectory
 from flowvo.versions import library_versions
 
 if TYPE_CHECKING:
-    from flowvo.drive.stream import StreamResult
+    from flowvo.drive.stream import StreamResult, StreamView
 
 
-def run(options: RunOptions) -> dict:
-    """Run odometry and write every output; returns the run summary (also in run.json).
+def run(options: RunOptions, view: StreamView | None = None) -> dict:
+    """Run odometry and write every output; returns the run summary (also in run.json). ``view``: shown each
+    frame and final pose as the drive streams (a live view, :mod:`flowvo.api.rerun`).
 
     Every input is checked (ground truth included) before the output folder is touched; the folder is
     locked while the run writes it, and an earlier result (``force``) is replaced only by the finished new
-    one, whole (see :func:`flowvo.io.outputs.staged_outputs`).
+    one, whole (see :func:`flowvo.io.outputs.staged_outputs`). The Python API (:func:`flowvo.api.run`) runs
+    the same three parts: :func:`start_run`, :func:`stream_run`, and :func:`save_run` when asked to save.
     """
-    from flowvo.drive.stream import stream_odometry
+    started = start_run(options, open_drive(options))
+    produces = started.produces
+    with claim_output_dir(options.out, produces, options.force, dataset=options.data) as out:
+        result = stream_run(started, view)
+        with staged_outputs(out, produces) as staging:
+            return _write_results(options, started.drive, started.step, result, started.ground_truth, staging)
 
-    drive = open_drive(options)
+
+@dataclass(frozen=True)
+class StartedRun:
+    """A drive checked and ready to stream: its options, the drive, the method's per-frame step and the ground
+    truth (read and checked before streaming, None without)."""
+
+    options: RunOptions
+    drive: Drive
+    step: OdometryStep
+    ground_truth: Trajectory | None
+
+    @property
+    def produces(self) -> list[str]:
+        """The files and folders a run folder of this drive holds."""
+        name = self.drive.source.name
+        return (run_outputs(name, steps=self.step.step_records() is not None)
+                + ([f"{name}.mcap"] if _writes_mcap(self.options) else []))
+
+
+def start_run(options: RunOptions, drive: Drive) -> StartedRun:
+    """Check the drive (frame count, ground truth, MCAP settings) and build the method's step for it."""
     source = drive.source
     where = options.data or options.video or options.bag
     if source.frame_count is not None and source.frame_count < 2:
         raise FlowvoError(f"has {source.frame_count} frame(s); odometry needs at least 2", where)
     ground_truth = source.ground_truth  # read and checked now, not after the whole drive streamed
     step = make_step(options, drive)
-    write_mcap = options.mcap or bool(options.bag)
-    if write_mcap:
-        from flowvo.ros.extra import require_ros_extra
-        from flowvo.ros.odometry_mcap import check_names
+    _writes_mcap(options)
+    return StartedRun(options, drive, step, ground_truth)
 
-        require_ros_extra("writing MCAP odometry")
-        check_names(options.frame_id, options.child_frame_id)
-    produces = (run_outputs(source.name, steps=step.step_records() is not None)
-                + ([f"{source.name}.mcap"] if write_mcap else []))
-    with claim_output_dir(options.out, produces, options.force, dataset=options.data) as out:
-        result = stream_odometry(source.frames(), step, source.frame_count, options.max_frames, source.name,
-                                 overlap=options.overlap_stages)
-        if result.frames < 2:  # a still image OpenCV opens as a one-frame "video"
-            raise FlowvoError(f"gave {result.frames} frame(s); odometry needs at least 2", where)
-        if write_mcap:
-            from flowvo.ros.odometry_mcap import check_stamps
 
-            check_stamps(result.timestamps_s, where)
-        with staged_outputs(out, produces) as staging:
-            return _write_results(options, drive, step, result, ground_truth, staging)
+def _writes_mcap(options: RunOptions) -> bool:
+    """Whether the run writes an MCAP (``--mcap``, always for a bag); the ROS extra and frame ids checked then."""
+    if not (options.mcap or options.bag):
+        return False
+    from flowvo.ros.extra import require_ros_extra
+    from flowvo.ros.odometry_mcap import check_names
+
+    require_ros_extra("writing MCAP odometry")
+    check_names(options.frame_id, options.child_frame_id)
+    return True
+
+
+def stream_run(started: StartedRun, view: StreamView | None = None) -> StreamResult:
+    """Stream the drive through its step (:func:`flowvo.drive.stream.stream_odometry`) and check what came out."""
+    from flowvo.drive.stream import stream_odometry
+
+    options, source = started.options, started.drive.source
+    where = options.data or options.video or options.bag
+    result = stream_odometry(source.frames(), started.step, source.frame_count, options.max_frames, source.name,
+                             overlap=options.overlap_stages, view=view)
+    if result.frames < 2:  # a still image OpenCV opens as a one-frame "video"
+        raise FlowvoError(f"gave {result.frames} frame(s); odometry needs at least 2", where)
+    check_result_stamps(options, result)
+    return result
+
+
+def check_result_stamps(options: RunOptions, result: StreamResult) -> None:
+    """An MCAP needs stamps it can hold: checked before anything is written."""
+    if _writes_mcap(options):
+        from flowvo.ros.odometry_mcap import check_stamps
+
+        check_stamps(result.timestamps_s, options.data or options.video or options.bag)
+
+
+def save_run(started: StartedRun, result: StreamResult) -> dict:
+    """Write a streamed drive's outputs into ``started.options.out`` as :func:`run` does (the folder claimed and
+    locked, an earlier result replaced only with ``force``, whole); returns the summary."""
+    options, produces = started.options, started.produces
+    check_result_stamps(options, result)
+    with claim_output_dir(options.out, produces, options.force, dataset=options.data) as out, \
+            staged_outputs(out, produces) as staging:
+        return _write_results(options, started.drive, started.step, result, started.ground_truth, staging)
 
 
 def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result: StreamResult,
@@ -90,6 +145,7 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
         "source": {"video": options.video, "bag": options.bag, "topic": options.topic},
         "synthetic": source.is_synthetic,
         "frames": result.frames,
+        "drive": drive_summary(result.T_world_cam, result.timestamps_s),  # distance, speeds, heading
         "poses": f"{source.name}.txt",
         "camera": drive.camera.record(),
         "frames_per_second": timing["frames_per_second"],
@@ -109,6 +165,10 @@ def _write_results(options: RunOptions, drive: Drive, step: OdometryStep, result
                             covariances=None if records is None else records_covariances(result.T_world_cam, records))
         summary["mcap"] = f"{source.name}.mcap"
     summary.update(step.summary())
+    # what reading the drive worked around (a video that ended early) and what the method could not measure
+    warnings = [*getattr(source, "warnings", []), *summary.pop("warnings", [])]
+    if warnings:
+        summary["warnings"] = warnings
     if ground_truth is not None:
         gt = ground_truth.subset(np.arange(result.frames)) if result.frames < len(ground_truth) else ground_truth
         evaluation = evaluate(gt, trajectory, lengths_m=options.lengths_m)

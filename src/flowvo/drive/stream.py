@@ -7,12 +7,13 @@ another (which ``overlap=False`` does, in the caller's thread).
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import cv2
 import numpy as np
@@ -88,6 +89,50 @@ class _Stage:
         self.cancelled.set()
 
 
+class StreamView(Protocol):
+    """What watches a stream as it runs (a live view, :mod:`flowvo.api.rerun`): ``frame`` after each frame's motion
+    (in the motion thread, right after the step's ``motion``, so the step's state is that frame's; ``motion``
+    None for the first frame), ``pose`` for each final pose (in the caller's thread, frame order)."""
+
+    def frame(self, index: int, time_s: float, prepared: Any, motion: np.ndarray | None,
+              step: OdometryStep) -> None: ...
+
+    def pose(self, index: int, time_s: float, T_world_cam: np.ndarray, step: OdometryStep) -> None: ...
+
+
+def check_frame_time(index: int, time_s: float, last_time_s: float | None) -> None:
+    """Refuse frame ``index``'s time (seconds) unless it is finite and after the last frame's."""
+    if not math.isfinite(time_s):
+        raise FlowvoError(f"frame {index} has time {time_s} s: timestamps must be finite seconds")
+    if last_time_s is not None and not time_s > last_time_s:
+        raise FlowvoError(f"timestamps must increase: frame {index} at {time_s:.6f} s follows "
+                          f"{last_time_s:.6f} s")
+
+
+def pair_motion(step: OdometryStep, previous: Any, prepared: Any, times_s: tuple[float, float]
+                ) -> tuple[np.ndarray, Any, dict[str, float]]:
+    """The step's stages on one pair of prepared frames, in order (``flow``, ``motion``, ``measured``): the
+    motion ``T_prev_cur``, what the window stage needs of it, and the seconds of the flow and motion stages."""
+    start = time.perf_counter()
+    flow = step.flow(previous, prepared)
+    middle = time.perf_counter()
+    motion = step.motion(times_s, previous, flow)
+    measured = step.measured()
+    return motion, measured, {"flow": middle - start, step.motion_stage: time.perf_counter() - middle}
+
+
+def window_stage(step: OdometryStep, time_s: float, motion: np.ndarray | None, measured: Any
+                 ) -> list[tuple[float, np.ndarray | None]]:
+    """The step's window stage for the frame at ``time_s``: the (time, motion) pairs now final (motion None: the
+    first frame, final at once)."""
+    return [(time_s, None)] if motion is None else step.refine(time_s, motion, measured)
+
+
+def chained(last_T_world_cam: np.ndarray | None, motion: np.ndarray | None) -> np.ndarray:
+    """The next pose ``T_world_cur = T_world_prev @ T_prev_cur`` (the identity for the first frame)."""
+    return np.eye(4) if motion is None else last_T_world_cam @ motion
+
+
 def _stop(*stages: _Stage) -> None:
     """Cancel every stage first, then wait for each thread, so that no OpenCV or torch call is still
     running in a thread when the interpreter exits (a C++ runtime then aborts the process: exit 134,
@@ -108,28 +153,24 @@ def _read(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep,
         if item is None:
             return
         time_s, image = item
-        if last_time_s is not None and not time_s > last_time_s:
-            raise FlowvoError(f"timestamps must increase: frame {count} at {time_s:.6f} s follows "
-                              f"{last_time_s:.6f} s")
+        check_frame_time(count, time_s, last_time_s)
         prepared = step.prepare(image)
         yield time_s, prepared, time.perf_counter() - start
         count, last_time_s = count + 1, time_s
 
 
-def _motions(prepared_frames: Iterable[tuple[float, Any, float]],
-             step: OdometryStep) -> Iterator[tuple[float, np.ndarray | None, Any, dict[str, float]]]:
+def _motions(prepared_frames: Iterable[tuple[float, Any, float]], step: OdometryStep,
+             view: StreamView | None = None) -> Iterator[tuple[float, np.ndarray | None, Any, dict[str, float]]]:
     """Yield ``(time_s, motion from the previous frame (None for the first), what the window stage needs
     of it, seconds per stage)``."""
     previous, previous_time_s = None, None
-    for time_s, prepared, read_s in prepared_frames:
+    for index, (time_s, prepared, read_s) in enumerate(prepared_frames):
         seconds, motion, measured = {"image_read": read_s}, None, None
         if previous is not None:
-            start = time.perf_counter()
-            flow = step.flow(previous, prepared)
-            middle = time.perf_counter()
-            motion = step.motion((previous_time_s, time_s), previous, flow)
-            measured = step.measured()
-            seconds.update({"flow": middle - start, step.motion_stage: time.perf_counter() - middle})
+            motion, measured, stage_seconds = pair_motion(step, previous, prepared, (previous_time_s, time_s))
+            seconds.update(stage_seconds)
+        if view is not None:
+            view.frame(index, time_s, prepared, motion, step)
         yield time_s, motion, measured, seconds
         previous, previous_time_s = prepared, time_s
 
@@ -144,7 +185,7 @@ def _windowed(motions: Iterable[tuple[float, np.ndarray | None, Any, dict[str, f
         for stage, value in seconds.items():
             pending[stage] = pending.get(stage, 0.0) + value
         start = time.perf_counter()
-        final = [(time_s, None)] if motion is None else step.refine(time_s, motion, measured)
+        final = window_stage(step, time_s, motion, measured)
         pending["window"] = pending.get("window", 0.0) + time.perf_counter() - start
         for final_time_s, final_motion in final:
             yield final_time_s, final_motion, pending
@@ -155,11 +196,14 @@ def _windowed(motions: Iterable[tuple[float, np.ndarray | None, Any, dict[str, f
 
 
 def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometryStep, total: int | None = None,
-                    max_frames: int | None = None, label: str = "odometry", overlap: bool = True) -> StreamResult:
+                    max_frames: int | None = None, label: str = "odometry", overlap: bool = True,
+                    view: StreamView | None = None) -> StreamResult:
     """Run ``step`` over ``frames`` ((time_s, grey image), in order) and chain the motions.
 
     ``overlap``: read and prepare frames in one thread and estimate motions in another, beside the caller's
-    (False: all in the caller's thread, for a process that should use one core, as a batch worker).
+    (False: all in the caller's thread, for a process that should use one core, as a batch worker). ``view``:
+    shown each frame and final pose (:class:`StreamView`). One frame at a time from the caller's code:
+    :class:`flowvo.api.odometry.Odometry`, the same stages in the same order.
     """
     # One BLAS thread: OpenBLAS's idle threads spin after each small matrix product and slowed the flow
     # stage 1.5x (56 -> 85 frames/s on real KITTI frames). OpenCV's pool as the step asks: a step whose
@@ -173,19 +217,20 @@ def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometrySt
         with threadpool_limits(limits=1, user_api="blas"):
             wall_start = time.perf_counter()
             if not overlap:
-                return _chain(_windowed(_motions(_read(frames, step, max_frames), step), step), [], total, label,
-                              wall_start)
+                return _chain(_windowed(_motions(_read(frames, step, max_frames), step, view), step), [], total,
+                              label, wall_start, view, step)
             reader = _Stage(_read(frames, step, max_frames))
-            motions = _Stage(_windowed(_motions(reader, step), step))  # the window stage in the motion thread:
+            motions = _Stage(_windowed(_motions(reader, step, view), step))  # the window stage in the motion thread:
             # in the caller's thread, a third one running Python beside these two, the default method streamed at
             # 0.32 of decoding instead of 0.345 (clip 07, median of six paired bench runs each)
-            return _chain(motions, [reader, motions], total, label, wall_start)
+            return _chain(motions, [reader, motions], total, label, wall_start, view, step)
     finally:
         cv2.setNumThreads(opencv_threads)
 
 
 def _chain(motions: Iterable[tuple[float, np.ndarray | None, dict[str, float]]], stages: list[_Stage],
-           total: int | None, label: str, wall_start: float) -> StreamResult:
+           total: int | None, label: str, wall_start: float, view: StreamView | None = None,
+           step: OdometryStep | None = None) -> StreamResult:
     """Chain the motions into poses in frame order (the caller's thread); the ``stages`` are stopped after."""
     seconds = dict.fromkeys(STAGES, 0.0)
     poses: list[np.ndarray] = []
@@ -193,8 +238,10 @@ def _chain(motions: Iterable[tuple[float, np.ndarray | None, dict[str, float]]],
     try:
         for time_s, motion, stage_seconds in progress(motions, label, total, "frame"):
             start = time.perf_counter()
-            poses.append(np.eye(4) if motion is None else poses[-1] @ motion)
+            poses.append(chained(poses[-1] if poses else None, motion))
             seconds["chaining"] += time.perf_counter() - start
+            if view is not None:
+                view.pose(len(poses) - 1, time_s, poses[-1], step)
             for stage, value in stage_seconds.items():
                 seconds[stage] += value
             times.append(time_s)
