@@ -9,7 +9,7 @@ from importlib.metadata import version
 import cv2
 import numpy as np
 
-from flowvo import __version__
+from flowvo._version import VERSION as __version__
 
 
 def library_versions() -> dict[str, str]:

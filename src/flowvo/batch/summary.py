@@ -10,7 +10,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from flowvo import __version__
+from flowvo._version import VERSION as __version__
 from flowvo.batch.record import STATUSES, DriveSummary
 from flowvo.errors import FlowvoError
 from flowvo.io.atomic import write_json_atomic, write_text_atomic

@@ -10,7 +10,7 @@ import signal
 import sys
 import threading
 
-from flowvo import __version__
+from flowvo._version import VERSION as __version__
 from flowvo.cli import (
     batch,
     bench,

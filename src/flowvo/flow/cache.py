@@ -22,7 +22,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from flowvo import __version__
+from flowvo._version import VERSION as __version__
 from flowvo.errors import FlowvoError
 from flowvo.flow.registry import FlowEstimator
 from flowvo.io.atomic import atomic_open, write_json_atomic
