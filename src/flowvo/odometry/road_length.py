@@ -9,7 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.odometry.road_scale import RoadNormal, RoadPlane, RoadPlaneTally, trusted_road_plane
+from flowvo.odometry.road_scale import (
+    RoadNormal,
+    RoadPlane,
+    RoadPlaneTally,
+    near_road_parallax_px,
+    trusted_road_plane,
+)
 from flowvo.odometry.two_view import EssentialMotion
 
 
@@ -24,6 +30,7 @@ class RoadLength:
         self.min_parallax_px = min_parallax_px
         self.normal = RoadNormal()
         self.tally = RoadPlaneTally()
+        self.near_parallax_px = 0.0  # the last trusted plane's near road motion beyond the rotation (pixels; 0: none)
 
     def advance(self, R_next_prev: np.ndarray, dt_s: float) -> None:
         """Carry the road's normal over a step of ``dt_s`` seconds with rotation ``R_next_prev``."""
@@ -39,11 +46,15 @@ class RoadLength:
         within reach, so the blend is carried on) of the road correspondences ``road`` (key frame, current frame)
         under the key frame's motion ``key_fit``, and the metres travelled since the key frame; (None, None)
         without a fit or a trusted plane."""
+        self.near_parallax_px = 0.0
         if key_fit is None:
             return None, None
-        plane = trusted_road_plane(road[0], road[1], self.K, key_fit, min_parallax_px=self.min_parallax_px,
-                                   levelling=self.levelling, tally=self.tally)
+        near_px = near_road_parallax_px(road[0], road[1], self.K, key_fit.R)
+        if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
+            return None, None
+        plane = trusted_road_plane(road[0], road[1], self.K, key_fit, levelling=self.levelling, tally=self.tally)
         if plane is None:
             return None, None
+        self.near_parallax_px = near_px
         plane = self.normal.smoothed(plane, key_fit.R, keep=measured)
         return plane, self.camera_height_m / plane.distance

@@ -151,8 +151,7 @@ def road_plane_candidate(points_prev: np.ndarray, points_next: np.ndarray, K: np
     walking pace the far rows barely move)."""
     if len(points_prev) < MIN_ROAD_POINTS:  # every road point left the frame, say
         return None
-    if min_parallax_px and np.percentile(translation_parallax_px(points_prev, points_next, K, motion.R),
-                                         90) < min_parallax_px:
+    if min_parallax_px and near_road_parallax_px(points_prev, points_next, K, motion.R) < min_parallax_px:
         return None
     points = triangulate(points_prev, points_next, K, motion)
     return fit_road_plane(points if levelling is None else points @ levelling.T)

@@ -41,7 +41,7 @@ class WindowStage:
     def keep_landmarks(self, previous: tuple[float, Landmarks] | None, current: tuple[float, Landmarks]) -> None:
         """A step's frames' landmark tracks (time, landmarks), for the bundle stage; ``previous`` only for the
         drive's first step (None after)."""
-        if previous is not None and not self.bundle.started and not self._landmark_views:
+        if previous is not None and not self._landmark_views:  # the drive's first frame
             self._landmark_views[previous[0]] = previous[1]
         self._landmark_views[current[0]] = current[1]
 
