@@ -44,10 +44,21 @@ def step_flow(step, step_m, yaw_rad=0.01, scene_moves=True, direction=(0.0, 0.0,
     t = -R @ (step_m * np.asarray(direction))
     rays = np.c_[step.road.grid_undistorted_px, np.ones(len(step.road.grid_px))] @ np.linalg.inv(step.K).T
     road = rays * (step.camera.camera_height_m / rays[:, 1:2])  # the grid's rays hit the road plane y = height
-    frame = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
+    frame = untracked_frame()
     moved = (lambda x: x @ R.T + t) if scene_moves else (lambda x: x)
-    return GeometryFlow(project(step.K, scene), project(step.K, moved(scene)), step.road.grid_undistorted_px,
+    return tracked_flow(step, project(step.K, scene), project(step.K, moved(scene)), step.road.grid_undistorted_px,
                         project(step.K, moved(road)), frame)
+
+
+def untracked_frame():
+    """A working frame without tracks (the first of a drive)."""
+    return GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY, EMPTY, EMPTY, None)
+
+
+def tracked_flow(step, motion_prev, motion_next, road_prev, road_next, frame, **keys):
+    """The step's flow with the step's essential fit of the tracks ``motion_prev`` -> ``motion_next``."""
+    return GeometryFlow(motion_prev, motion_next, step.fit_motion(motion_prev, motion_next), road_prev, road_next,
+                        frame, **keys)
 
 
 def fallback_network(step, distance_m):
@@ -144,7 +155,8 @@ def test_a_refused_direction_keeps_the_fits_rotation_where_no_rotation_along_the
     step = at_speed_with_sideways_fits(monkeypatch)
     flow = step_flow(step, 1.0)
     scattered = flow.motion_prev + np.random.default_rng(0).uniform(-20, 20, flow.motion_prev.shape).astype(np.float32)
-    kept = step.motion((0.1, 0.2), None, dataclasses.replace(flow, motion_next=scattered))
+    kept = step.motion((0.1, 0.2), None, dataclasses.replace(flow, motion_next=scattered,
+                                                            motion_fit=step.fit_motion(flow.motion_prev, scattered)))
     np.testing.assert_allclose(kept[:3, :3], WRONG_R.T, atol=1e-12)
     np.testing.assert_allclose(kept[:3, 3] / np.linalg.norm(kept[:3, 3]), [0.0, 0.0, 1.0], atol=1e-9)
 
@@ -153,7 +165,7 @@ def test_too_few_tracks_keep_the_last_motion():
     step = FlowGeometryStep(CAMERA, HW)
     first = step.motion((0.0, 0.1), None, step_flow(step, 1.0))
     flow = step_flow(step, 1.0)
-    degenerate = GeometryFlow(flow.motion_prev[:10], flow.motion_next[:10], flow.road_prev, flow.road_next,
+    degenerate = tracked_flow(step, flow.motion_prev[:10], flow.motion_next[:10], flow.road_prev, flow.road_next,
                               flow.current)
     np.testing.assert_array_equal(step.motion((0.1, 0.2), None, degenerate), first)
 
@@ -164,7 +176,7 @@ def test_without_a_trusted_road_the_network_measures_after_a_second():
     step = FlowGeometryStep(CAMERA, HW, fallback=network)
     step.motion((0.0, 0.1), None, step_flow(step, 1.0))  # a road: 10 m/s
     flow = step_flow(step, 1.0)
-    no_road = GeometryFlow(flow.motion_prev, flow.motion_next, flow.road_prev[:5], flow.road_next[:5], flow.current)
+    no_road = dataclasses.replace(flow, road_prev=flow.road_prev[:5], road_next=flow.road_next[:5])
     times = np.arange(0.1, 1.6, 0.1)
     lengths = [np.linalg.norm(step.motion((t, t + 0.1), flow.current, no_road)[:3, 3]) for t in times]
     assert len(calls) == 5 and step.summary()["network_distance_steps"] == 5  # after 1 s: t + 0.1 > 1.1
@@ -176,7 +188,7 @@ def test_without_a_trusted_road_the_network_measures_after_a_second():
 
 def test_a_slowly_moving_road_keeps_its_key_frame_and_scales_the_step_by_time():
     step = FlowGeometryStep(CAMERA, HW)
-    previous = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
+    previous = untracked_frame()
     slow = step_flow(step, 0.2)  # a small road motion: under the key frame threshold
     assert np.linalg.norm(step.motion((0.0, 0.1), previous, slow)[:3, 3]) == pytest.approx(0.2, rel=1e-4)
     assert step.road_key.frame is previous  # the next step measures from the same frame
@@ -191,7 +203,7 @@ def test_a_kept_key_frame_predicts_the_next_road_flow_only_below_6_mps(dt_s, pre
     predicted at constant velocity; at 10 m/s (50 Hz) it is not (a car that fast whose road barely moves in
     view has lost it)."""
     step = FlowGeometryStep(CAMERA, HW)
-    previous = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY)
+    previous = untracked_frame()
     for k in range(2):
         step.motion((k * dt_s, (k + 1) * dt_s), previous, step_flow(step, 0.2))
     assert step.road_key.frame is previous
@@ -225,13 +237,13 @@ def test_the_window_measures_each_step_against_the_last_through_the_continued_tr
         scenes.append(scenes[-1] @ R.T - R @ np.array([0.0, 0.0, length]))
     a, b, c = (project(step.K, scene) for scene in scenes)
     rows = np.arange(0, 300, 6)
-    frame_b = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, a, b)
-    frame_c = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, b, c, rows, c[rows])
+    frame_b = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, a, b, a, b, None)
+    frame_c = GeometryFrame(np.zeros(HW, np.uint8), EMPTY, b, c, b, c, None, rows, c[rows])
     road_ab, road_bc = step_flow(step, 0.8, 0.01), step_flow(step, 1.1, 0.005)
-    step.motion((0.0, 0.1), None, GeometryFlow(a, b, road_ab.road_prev, road_ab.road_next, frame_b))
+    step.motion((0.0, 0.1), None, tracked_flow(step, a, b, road_ab.road_prev, road_ab.road_next, frame_b))
     unit_m = step.metres_per_unit  # the window measures in KITTI camera heights
     assert step._step_scale.ratio is None and step._step_scale.road_m * unit_m == pytest.approx(0.8, rel=1e-4)
-    step.motion((0.1, 0.2), frame_b, GeometryFlow(b, c, road_bc.road_prev, road_bc.road_next, frame_c))
+    step.motion((0.1, 0.2), frame_b, tracked_flow(step, b, c, road_bc.road_prev, road_bc.road_next, frame_c))
     assert step._step_scale.ratio == pytest.approx(1.1 / 0.8, rel=1e-6)
     assert step._step_scale.road_m * unit_m == pytest.approx(1.1, rel=1e-4)
 

@@ -87,13 +87,14 @@ def thirty_fps_steps(key_yaw_error_deg=0.0):
         scenes.append(scenes[-1] @ R_step.T + R_step @ t_step)
     rays = np.c_[step.road.grid_undistorted_px, np.ones(len(step.road.grid_px))] @ np.linalg.inv(step.K).T
     road = rays * (step.camera.camera_height_m / rays[:, 1:2])
-    frames = [GeometryFrame(np.zeros(HW, np.uint8), EMPTY, EMPTY, EMPTY) for _ in scenes]
+    frames = [GeometryFrame(np.zeros(HW, np.uint8), *(EMPTY,) * 5, None) for _ in scenes]
     motions = []
     for k in range(1, 4):
         key = (None, None) if step.checks.rotation_key.frame is None else \
             (project(SCENE), project(scenes[k] @ key_rotation_error.T))
         assert step.checks.rotation_key.frame is (None if k == 1 else frames[0])
-        flow = GeometryFlow(project(scenes[k - 1]), project(scenes[k] @ PITCH_ERROR.T), step.road.grid_undistorted_px,
+        motion = project(scenes[k - 1]), project(scenes[k] @ PITCH_ERROR.T)
+        flow = GeometryFlow(*motion, step.fit_motion(*motion), step.road.grid_undistorted_px,
                             project(road @ R_step.T + R_step @ t_step), frames[k], rotation_key_prev=key[0],
                             rotation_key_next=key[1])
         motions.append(step.motion(((k - 1) / 30, k / 30), frames[k - 1], flow))

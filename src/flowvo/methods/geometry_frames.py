@@ -8,20 +8,26 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from flowvo.odometry.landmark_tracks import Landmarks
+from flowvo.odometry.two_view import EssentialMotion
 
 
 @dataclass(frozen=True)
 class GeometryFrame:
     """A working frame of the default method with its textured points, the tracks of the previous frame's
-    textured points into it, and ``continued_next``: where the previous frame's tracks (its
-    ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per frame, in order,
-    in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks`` tracked over many
-    frames (:mod:`flowvo.odometry.landmark_tracks`); pixels of the (distorted) working frame."""
+    textured points into it (``tracked_prev`` -> ``tracked_next``; undistorted: ``pair_prev`` -> ``pair_next``,
+    with their essential fit ``pair_fit``, None where there is none), and ``continued_next``: where the previous
+    frame's tracks (its ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per
+    frame, in order, in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks``
+    tracked over many frames (:mod:`flowvo.odometry.landmark_tracks`); pixels of the (distorted) working frame
+    unless said."""
 
     image: np.ndarray
     textured_px: np.ndarray
     tracked_prev: np.ndarray
     tracked_next: np.ndarray
+    pair_prev: np.ndarray
+    pair_next: np.ndarray
+    pair_fit: EssentialMotion | None
     continued_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     continued_next: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
     landmarks: Landmarks | None = None
@@ -30,7 +36,8 @@ class GeometryFrame:
 @dataclass(frozen=True)
 class GeometryFlow:
     """What the default method measures between two working frames, in undistorted pixels: ``motion_prev``
-    -> ``motion_next`` (M, 2) tracked textured points for the rotation and translation direction, and
+    -> ``motion_next`` (M, 2) tracked textured points for the rotation and translation direction (their essential
+    fit ``motion_fit``, None where there is none), and
     ``road_prev`` -> ``road_next`` (R, 2) road-band points that stay in view, moved by the dense flow of the road crop
     from the road key frame (the previous frame, or an earlier one while the road moves little) to the
     current one, with ``key_prev`` -> ``key_next`` the key frame's textured points tracked into the current
@@ -40,6 +47,7 @@ class GeometryFlow:
 
     motion_prev: np.ndarray
     motion_next: np.ndarray
+    motion_fit: EssentialMotion | None
     road_prev: np.ndarray
     road_next: np.ndarray
     current: GeometryFrame
