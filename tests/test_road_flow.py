@@ -9,7 +9,7 @@ import pytest
 from flowvo.camera import Camera, CameraIntrinsics, LensDistortion, distort_points, undistort_points
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_flow import RoadFlow
-from flowvo.odometry.road_scale import GRID_MARGIN_PX, RoadPlane, road_homography
+from flowvo.odometry.road_scale import GRID_MARGIN_PX, RoadPlane, horizon_below_px, road_homography
 from flowvo.odometry.two_view import EssentialMotion
 
 HW = (188, 620)
@@ -88,3 +88,18 @@ def test_road_points_that_leave_the_frame_are_dropped():
     assert 0 < len(before) < len(road.grid_px)
     np.testing.assert_array_equal(before, road.grid_undistorted_px[inside])
     assert ((after >= GRID_MARGIN_PX) & (after < np.array(HW[::-1]) - GRID_MARGIN_PX)).all()
+
+
+@pytest.mark.parametrize("pitch_deg", [-5.0, 0.0, 8.0])
+def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(pitch_deg):
+    """A camera pitched 5 degrees up has its horizon fy tan(5 deg) below the principal point: the grid's and the
+    crop's top rows move down by that; level and pitched-down cameras keep theirs (their horizon is higher)."""
+    K = np.array([[359.0, 0.0, 310.0], [0.0, 359.0, 94.0], [0.0, 0.0, 1.0]])
+    intrinsics = CameraIntrinsics(359.0, 359.0, 310.0, 94.0)
+    level = RoadFlow(Camera(intrinsics), (188, 620), "dis-road")
+    road = RoadFlow(Camera(intrinsics, pitch_deg=pitch_deg), (188, 620), "dis-road")
+    below = 359.0 * np.tan(np.radians(5.0)) if pitch_deg < 0 else 0.0
+    assert horizon_below_px(K, pitch_deg) == pytest.approx(below, abs=1e-9)
+    assert road.grid_px[:, 1].min() == int(94.0 + below + 0.10 * 188)
+    assert road.crop[0].start == int(94.0 + below + 0.05 * 188)
+    assert road.grid_px[:, 1].max() == level.grid_px[:, 1].max() and road.crop[0].stop == level.crop[0].stop

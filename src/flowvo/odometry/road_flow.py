@@ -11,7 +11,14 @@ import numpy as np
 
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.flow.registry import create_estimator
-from flowvo.odometry.road_scale import GRID_MARGIN_PX, ROAD_ROWS, road_crop, road_grid, road_points_in_view
+from flowvo.odometry.road_scale import (
+    GRID_MARGIN_PX,
+    ROAD_ROWS,
+    horizon_below_px,
+    road_crop,
+    road_grid,
+    road_points_in_view,
+)
 from flowvo.odometry.still_regions import StillRegions
 from flowvo.odometry.two_view import follow_flow
 
@@ -31,9 +38,10 @@ class RoadFlow:
     def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0) -> None:
         self.camera, self.K, self.working_hw = camera, camera.intrinsics.K, working_hw
         self.estimator = create_estimator(flow_method)
-        self.crop = road_crop(working_hw, self.K)
+        below_px = horizon_below_px(self.K, camera.pitch_deg)
+        self.crop = road_crop(working_hw, self.K, horizon_below_px=below_px)
         self.crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
-        self.grid_px = road_grid(working_hw, self.K)
+        self.grid_px = road_grid(working_hw, self.K, horizon_below_px=below_px)
         self.grid_undistorted_px = self.undistort(self.grid_px)
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],

@@ -7,6 +7,7 @@ flow was computed at; lengths in metres, or in units of the step where said so.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,28 +37,37 @@ def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
             f"[{cx_range[0]:.0f}, {cx_range[1]:.0f}] and cy <= {max_cy:.0f} px")
 
 
+def horizon_below_px(K: np.ndarray, pitch_deg: float) -> float:
+    """How far below the principal point (pixels, ideal pinhole) the horizon lies for a camera pitched ``pitch_deg``
+    (down positive): 0 for a level camera or one pitched down, whose horizon is at or above it."""
+    return max(0.0, -float(K[1, 1]) * math.tan(math.radians(pitch_deg)))
+
+
 def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = ROAD_ROWS,
-              half_width: float = ROAD_HALF_WIDTH, step_px: int = GRID_MARGIN_PX) -> np.ndarray:
+              half_width: float = ROAD_HALF_WIDTH, step_px: int = GRID_MARGIN_PX, horizon_below_px: float = 0.0
+              ) -> np.ndarray:
     """Where to read the road's flow: a regular grid (R, 2) float32 of rows ``cy + rows * H`` within
-    ``half_width * W`` of the principal point column, where the road ahead usually is. The nearest rows
+    ``half_width * W`` of the principal point column, where the road ahead usually is; its top rows start
+    ``horizon_below_px`` lower (:func:`horizon_below_px`: a camera pitched up sees sky and distant scenery where a
+    level one sees road; synthetic camera pitched 5 degrees up, told so: t_err 6.81 -> 4.65 %). The nearest rows
     measure the road best (a road point's parallax falls with the square of its distance); their large,
     stretching motion is within reach because the default method predicts the road's flow."""
     h, w = image_hw
     cx, cy = K[0, 2], K[1, 2]
-    top, bottom = int(cy + rows[0] * h), min(h - GRID_MARGIN_PX, int(cy + rows[1] * h))
+    top, bottom = int(cy + horizon_below_px + rows[0] * h), min(h - GRID_MARGIN_PX, int(cy + rows[1] * h))
     left, right = max(GRID_MARGIN_PX, int(cx - half_width * w)), min(w - GRID_MARGIN_PX, int(cx + half_width * w))
     ys, xs = np.mgrid[top:bottom:step_px, left:right:step_px]
     return np.stack([xs.ravel(), ys.ravel()], axis=1).astype(np.float32)
 
 
 def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.05, 0.50),
-              half_width: float = 0.25) -> tuple[slice, slice]:
+              half_width: float = 0.25, horizon_below_px: float = 0.0) -> tuple[slice, slice]:
     """The part of the frame whose dense flow the road scale needs: the :func:`road_grid` band with margins
-    (road points move down and outwards between frames). Rows ``cy + rows * H``, columns within
-    ``half_width * W`` of the principal point."""
+    (road points move down and outwards between frames). Rows ``cy + rows * H`` (the top ones
+    ``horizon_below_px`` lower), columns within ``half_width * W`` of the principal point."""
     h, w = image_hw
     cx, cy = K[0, 2], K[1, 2]
-    return (slice(int(cy + rows[0] * h), min(h, int(cy + rows[1] * h))),
+    return (slice(int(cy + horizon_below_px + rows[0] * h), min(h, int(cy + rows[1] * h))),
             slice(max(0, int(cx - half_width * w)), min(w, int(cx + half_width * w))))
 
 
