@@ -79,26 +79,17 @@ def main() -> None:
                                  force=True, camera_pitch_deg=pitch_deg))
         reference = reference or summary["metrics"]["t_err_percent"]
         print(_row(label, summary, root, out, reference))
-        advice_deg = summary["road_planes"]["tilted_median_pitch_deg"]
-        if label == NOT_TOLD and advice_deg is not None:  # given the advice: does it settle?
-            advised_deg = round((pitch_deg or 0.0) + advice_deg, 1)
-            out = args.out / f"camera_{index}" / "run_advised"
-            summary = run(RunOptions(out=str(out), data=str(root), sequence="00", lengths_m=tuple(args.lengths),
-                                     force=True, camera_pitch_deg=advised_deg))
-            print(_row(f"the dash-cam, given the advice (--camera-pitch {advised_deg:g})", summary, root, out,
-                       reference))
 
 
 def _row(label: str, summary: dict, root: Path, out: Path, reference: float) -> str:
-    """One table row: the run's scores against the truth, its road planes and the pitch it advises (or none)."""
+    """One table row: the run's scores against the truth, its road planes and the pitch it took from the drive."""
     metrics, planes = summary["metrics"], summary["road_planes"]
     truth = trajectory_distances(read_kitti_poses(root / "poses" / "00.txt").positions)[-1]
     length = trajectory_distances(read_kitti_poses(out / "00.txt").positions)[-1]
-    hint = planes["tilted_median_pitch_deg"]
-    advice = "none" if hint is None else f"--camera-pitch {summary['camera']['camera_pitch_deg'] + hint:.1f}"
+    taken = ", ".join(f"{pitch_deg:.1f}" for pitch_deg in planes["pitches_taken_deg"]) or "none"
     return (f"| {label} | {summary['frames']} | {metrics['t_err_percent']:.2f} | {metrics['r_err_deg_per_m']:.4f} "
             f"| {100 * (length / truth - 1):+.1f} % of {truth:.0f} m | {metrics['t_err_percent'] / reference:.2f}x "
-            f"| {planes['trusted']} / {planes['refused_as_tilted']} | {advice} |")
+            f"| {planes['trusted']} / {planes['refused_as_tilted']} | {taken} |")
 
 
 if __name__ == "__main__":

@@ -37,8 +37,8 @@ def seen(road: np.ndarray, length_m: float, yaw_rad: float = 0.01
     return (project(road), project(road @ R.T + t_dir * length_m)), EssentialMotion(R, t_dir, np.ones(1, bool))
 
 
-def road_length(levelling: np.ndarray | None = None) -> RoadLength:
-    return RoadLength(K, HEIGHT_M, levelling, MIN_PARALLAX_PX)
+def road_length(pitch_deg: float = 0.0) -> RoadLength:
+    return RoadLength(K, HEIGHT_M, pitch_deg, MIN_PARALLAX_PX)
 
 
 @pytest.mark.parametrize("length_m", [0.3, 1.2])
@@ -66,9 +66,9 @@ def test_a_road_plane_within_4_degrees_is_trusted_and_tallied():
     plane, road_m = stage.measure(road, motion, measured=True)
     assert road_m == pytest.approx(1.0, rel=1e-9)  # the height is measured along the plane's own normal
     assert plane.tilt_rad == pytest.approx(pitch, rel=1e-6)
-    assert stage.tally.record() == {"trusted": 1, "refused_as_tilted": 0, "tilted_median_pitch_deg": None,
+    assert stage.tally.record() == {"trusted": 1, "refused_as_tilted": 0,
                                     "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None,
-        "candidates_pitch_spread_deg": None}
+                                    "candidates_pitch_spread_deg": None}
 
 
 def test_without_a_fit_there_is_no_plane_and_no_length():
@@ -96,9 +96,30 @@ def test_a_pitched_camera_with_its_levelling_measures_the_road_under_it_exactly(
     road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ levelling  # level-frame points, camera frame
     road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
     assert road_length().measure(road, motion, measured=True) == (None, None)  # taken for level: refused
-    plane, road_m = road_length(levelling).measure(road, motion, measured=True)
+    plane, road_m = road_length(8.0).measure(road, motion, measured=True)
     assert road_m == pytest.approx(0.8, rel=1e-9)
     np.testing.assert_allclose(plane.normal, levelling.T @ np.array([0.0, 1.0, 0.0]), atol=1e-9)
+
+
+def test_a_camera_pitched_8_degrees_down_taken_for_level_is_levelled_by_its_drive_once():
+    """Every road plane of a camera pitched 8 degrees down but said level leans 8 degrees and is refused; after
+    MIN_TILTED_FOR_HINT of them their median pitch is taken, the next plane is trusted with the exact metres, and
+    the planes after it (leaning 0 degrees now) take nothing more: the pitch is a fixed point."""
+    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+
+    road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ pitch_rotation(8.0)
+    road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
+    stage = road_length()
+    for _ in range(MIN_TILTED_FOR_HINT - 1):
+        assert stage.measure(road, motion, measured=True) == (None, None)
+    assert stage.pitches_taken_deg == []
+    assert stage.measure(road, motion, measured=True) == (None, None)  # the 20th refused: its pitch is taken
+    assert stage.pitches_taken_deg == [pytest.approx(8.0, abs=1e-6)]
+    for _ in range(2 * MIN_TILTED_FOR_HINT):
+        plane, road_m = stage.measure(road, motion, measured=True)
+        assert road_m == pytest.approx(0.8, rel=1e-6)
+    assert stage.pitches_taken_deg == [pytest.approx(8.0, abs=1e-6)]
+    assert stage.tally.record()["candidates_median_pitch_deg"] == pytest.approx(0.0, abs=1e-4)
 
 
 def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measured_flow():

@@ -190,7 +190,10 @@ def test_default_method_on_a_camera_pitched_8_degrees_down_is_within_1_3x_of_kit
     kitti_t_err = kitti_camera_metrics["t_err_percent"]
     assert t_err <= 1.3 * kitti_t_err, f"t_err {t_err:.2f} % against {kitti_t_err:.2f} % (KITTI's)"
     planes = json.loads((tmp_path / "run" / "run.json").read_text())["road_planes"]
-    assert planes["tilted_median_pitch_deg"] is None and planes["trusted"] > 100  # no hint: the pitch was given
+    assert planes["pitches_taken_deg"] == [] and planes["trusted"] > 100  # nothing taken: the pitch was given
     summary = run(RunOptions(out=str(tmp_path / "level"), data=str(tmp_path / "data"), sequence="00",
-                             camera_pitch_deg=0.0))  # the same drive taken for level: every plane leans 8 deg
-    assert summary["road_planes"]["tilted_median_pitch_deg"] == pytest.approx(8.0, abs=0.5)
+                             camera_pitch_deg=0.0))  # the same drive taken for level: every plane leans 8 deg, until
+    # the drive's pitch is taken from its planes
+    assert summary["road_planes"]["pitches_taken_deg"] == [pytest.approx(8.0, abs=0.5)]
+    level_t_err = summary["metrics"]["t_err_percent"]
+    assert level_t_err <= 1.3 * kitti_t_err, f"t_err {level_t_err:.2f} % run as if level against {kitti_t_err:.2f} %"

@@ -32,11 +32,10 @@ def command(args: argparse.Namespace) -> int:
         print(_estimate_line(summary["camera"]))
     print(_camera_line(summary))
     planes = summary.get("road_planes", {})
-    if planes.get("tilted_median_pitch_deg") is not None:
-        hint, pitch = planes["tilted_median_pitch_deg"], summary["camera"]["camera_pitch_deg"]
-        print(f"warning: {planes['refused_as_tilted']} road planes refused as tilted ({planes['trusted']} trusted), "
-              f"by {hint:+.1f} deg of pitch (median): a camera mounted pitched needs --camera-pitch "
-              f"{pitch + hint:.1f} (docs/camera.md)")
+    if taken := planes.get("pitches_taken_deg"):
+        print(f"note: the camera's pitch was taken from the drive: {taken[-1]:.1f} deg down (its road planes leaned "
+              f"alike; {planes['refused_as_tilted']} refused as tilted): --camera-pitch {taken[-1]:.1f} measures with "
+              "it from the first frame (docs/camera.md)")
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     print(drive_line(summary["drive"]))

@@ -139,7 +139,8 @@ class FlowGeometryStep(WorkingFrames):
         # threshold in metres or m/s (the speed prior's limits, the gates by speed, the network's distance) then
         # acts alike at any height, and each length given out is exactly proportional to the height
         self.metres_per_unit = self.camera.camera_height_m / KITTI_CAMERA_HEIGHT_M
-        self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, levelling, MIN_ROAD_PARALLAX_PX * scale)
+        self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, self.camera.pitch_deg,
+                                      MIN_ROAD_PARALLAX_PX * scale)
         self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M,
                                                                   BASELINE_PX * scale)
         self.road_too_fast_steps = 0  # road lengths the window was not given: faster than a car could have driven
@@ -361,7 +362,8 @@ class FlowGeometryStep(WorkingFrames):
         than a car could have driven (``speed_limit``: 45 m/s for a camera 1.65 m high, in proportion to the height,
         lower soon after a standstill), and the window stage's record (:meth:`WindowStage.summary`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
-        kept["road_planes"] = self.road_length.tally.record()
+        kept["road_planes"] = self.road_length.tally.record() | \
+            {"pitches_taken_deg": self.road_length.pitches_taken_deg}
         kept.update(self.checks.summary())
         kept["still_regions"] = {"road_cells": self.road.still.still_cells,
                                  "track_cells": self.still_tracks.still_cells}

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowvo.camera import pitch_rotation
 from flowvo.odometry.road_scale import (
     RoadNormal,
     RoadPlane,
@@ -21,12 +22,18 @@ from flowvo.odometry.two_view import EssentialMotion
 
 class RoadLength:
     """The road scale of a camera with intrinsics ``K`` (working pixels), ``camera_height_m`` above the road,
-    ``levelling`` the rotation from its frame to the road-levelled one (None: mounted level);
-    ``min_parallax_px``: the road motion beyond the rotation that nine road points in ten must show."""
+    pitched ``pitch_deg`` down (degrees; its road planes are judged in the road-levelled frame);
+    ``min_parallax_px``: the road motion beyond the rotation that nine road points in ten must show.
 
-    def __init__(self, K: np.ndarray, camera_height_m: float, levelling: np.ndarray | None,
-                 min_parallax_px: float) -> None:
-        self.K, self.camera_height_m, self.levelling = K, camera_height_m, levelling
+    Where the drive's candidate planes say the camera is pitched otherwise (most refused as tilted, leaning alike
+    by a degree or more: :meth:`RoadPlaneTally.mounting_hint_deg`), their median pitch is taken from the next step
+    on, and the candidates after it judge it again (a fixed point: a camera pitched 8 degrees down and run as if
+    level is levelled once, then its candidates centre on the road). ``pitches_taken_deg``: the pitches so taken."""
+
+    def __init__(self, K: np.ndarray, camera_height_m: float, pitch_deg: float, min_parallax_px: float) -> None:
+        self.K, self.camera_height_m, self.pitch_deg = K, camera_height_m, pitch_deg
+        self.levelling = pitch_rotation(pitch_deg) if pitch_deg else None
+        self.pitches_taken_deg: list[float] = []
         self.min_parallax_px = min_parallax_px
         self.normal = RoadNormal()
         self.tally = RoadPlaneTally()
@@ -53,8 +60,19 @@ class RoadLength:
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
         plane = trusted_road_plane(road[0], road[1], self.K, key_fit, levelling=self.levelling, tally=self.tally)
+        self._level_by_the_drive()
         if plane is None:
             return None, None
         self.near_parallax_px = near_px
         plane = self.normal.smoothed(plane, key_fit.R, keep=measured)
         return plane, self.camera_height_m / plane.distance
+
+    def _level_by_the_drive(self) -> None:
+        """Take the pitch the candidate planes agree on (see the class docstring)."""
+        hint_deg = self.tally.mounting_hint_deg()
+        if hint_deg is None:
+            return
+        self.pitch_deg += hint_deg
+        self.levelling = pitch_rotation(self.pitch_deg)
+        self.pitches_taken_deg.append(round(self.pitch_deg, 2))
+        self.tally.restart()

@@ -316,11 +316,12 @@ def near_road_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: n
 
 
 MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before their pitch says anything of the mounting
-MIN_HINT_DEG = 1.0  # the candidates' median pitch must be this far from the pitch given before a change is advised:
-# real KITTI's level camera reads 0.0-1.0 degrees, and an advice taken must not be followed by another
+MIN_HINT_DEG = 1.0  # the candidates' median pitch must be this far from the pitch given before it is taken (see
+# flowvo.odometry.road_length): real KITTI's level camera reads 0.0-1.0 degrees, and a pitch taken must not be
+# followed by another
 MAX_ALIKE_SPREAD_DEG = 2.0  # the candidates' pitches must lean alike (inter-quartile range below this) for their median
-# to be the mounting: the real dash-cam's scatter over 4.4 degrees (-6.5 to -2.1), and the pitch its median advised
-# (-3.4, the horizon says -1.7) halved its speed when given back ([dashcam.md](dashcam.md))
+# to be the mounting: the real dash-cam's scatter over 4.4 degrees (-6.5 to -2.1), and their median (-3.4, the
+# horizon says -1.7) halved its speed when given as its pitch ([dashcam.md](dashcam.md))
 
 
 class RoadPlaneTally:
@@ -336,6 +337,7 @@ class RoadPlaneTally:
         self.refused_as_tilted = 0
         self.pitches_deg: list[float] = []
         self.rolls_deg: list[float] = []
+        self._since = (0, 0)  # (trusted, refused as tilted) when the pitches were last cleared (:meth:`restart`)
 
     def add(self, plane: RoadPlane, trusted: bool, max_tilt_rad: float = MAX_ROAD_TILT_RAD) -> None:
         """Count a candidate plane (level frame) and whether it was trusted."""
@@ -343,6 +345,12 @@ class RoadPlaneTally:
         self.refused_as_tilted += bool(not trusted and plane.tilt_rad > max_tilt_rad)
         self.pitches_deg.append(float(np.degrees(np.arctan2(plane.normal[2], plane.normal[1]))))
         self.rolls_deg.append(float(np.degrees(np.arctan2(-plane.normal[0], plane.normal[1]))))
+
+    def restart(self) -> None:
+        """The camera's pitch changed (taken from the drive): the mounting is estimated afresh from the candidates
+        after now; the counts go on."""
+        self.pitches_deg, self.rolls_deg = [], []
+        self._since = (self.trusted, self.refused_as_tilted)
 
     def mounting_deg(self) -> tuple[float, float] | None:
         """The camera's pitch and roll relative to the ones given (degrees), the medians over every candidate plane;
@@ -361,18 +369,18 @@ class RoadPlaneTally:
     def mounting_hint_deg(self) -> float | None:
         """The pitch to add to the one given when most candidate planes were refused as tilted, at least
         ``MIN_TILTED_FOR_HINT`` of them, leaning alike (``MAX_ALIKE_SPREAD_DEG``), and their median pitch lies
-        ``MIN_HINT_DEG`` or more off; else None (given the advice, the next run's candidates centre on the road and
-        nothing more is advised). Planes refused but scattered say the road's flow is poor, not the mounting."""
+        ``MIN_HINT_DEG`` or more off; else None (with that pitch taken, the candidates after it centre on the road and
+        nothing more is taken). Planes refused but scattered say the road's flow is poor, not the mounting."""
         mounting, spread = self.mounting_deg(), self.pitch_spread_deg()
-        if self.refused_as_tilted < MIN_TILTED_FOR_HINT or self.refused_as_tilted <= self.trusted or mounting is None:
+        trusted, refused = self.trusted - self._since[0], self.refused_as_tilted - self._since[1]
+        if refused < MIN_TILTED_FOR_HINT or refused <= trusted or mounting is None:
             return None
         return mounting[0] if abs(mounting[0]) >= MIN_HINT_DEG and spread < MAX_ALIKE_SPREAD_DEG else None
 
     def record(self) -> dict:
         """The tally as ``run.json`` records it."""
-        hint, mounting = self.mounting_hint_deg(), self.mounting_deg()
+        mounting = self.mounting_deg()
         return {"trusted": self.trusted, "refused_as_tilted": self.refused_as_tilted,
-                "tilted_median_pitch_deg": None if hint is None else round(hint, 2),
                 "candidates_median_pitch_deg": None if mounting is None else round(mounting[0], 2),
                 "candidates_median_roll_deg": None if mounting is None else round(mounting[1], 2),
                 "candidates_pitch_spread_deg": None if mounting is None else round(self.pitch_spread_deg(), 2)}
