@@ -61,7 +61,7 @@ def main() -> None:
     print(f"seed {args.seed}, {(args.frames - 1) / PATH_RATE_HZ:g} s drive, scale {args.scale:g}, sub-paths "
           f"{' '.join(f'{m:g}' for m in args.lengths)} m")
     print("| camera | frames | t_err % | r_err deg/m | path length vs truth | t_err / KITTI camera's "
-          "| road planes trusted / refused as tilted | pitch advised |")
+          "| road planes trusted / refused as tilted | pitch taken from the drive |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     rows = set(args.rows or range(len(CAMERAS))) | {0}
     reference, rendered = None, {}
