@@ -147,3 +147,23 @@ def test_forget_drops_the_rotation_key_frame_and_the_last_yaw_rate():
     assert motion_checks.rotation_key.frame is None
     overturned = fit_of(yaw(0.04), first.t_dir)
     assert motion_checks.checked(overturned, None, tracks, 0.1, 3.0) is overturned  # nothing to jump from
+
+
+def test_the_car_axes_turned_by_a_pitch_taken_from_the_drive_judge_the_direction_of_travel():
+    """A direction of travel 25 degrees above the camera's optical axis is refused at speed for a camera taken for
+    level (the gate is 20 degrees); once the drive's pitch of 8 degrees down is taken, the car's forward axis is 8
+    degrees above the optical axis (a camera looking down sees the level road ahead above its centre) and the same
+    direction, 17 degrees off it, is taken."""
+    from flowvo.camera import pitch_rotation
+    from flowvo.odometry.travel_direction import TravelDirection
+
+    above = np.array([0.0, -np.sin(np.radians(25.0)), np.cos(np.radians(25.0))])  # y down
+    level = TravelDirection(np.array([0.0, 0.0, 1.0]))
+    assert np.array_equal(level.checked(above, speed_mps=10.0), level.last_taken) and level.kept_steps == 1
+    checks = MotionChecks(np.eye(3), np.eye(3), 0.25)
+    checks.turn_car_axes(pitch_rotation(8.0).T)
+    np.testing.assert_allclose(checks.travel.forward, [0.0, -np.sin(np.radians(8.0)), np.cos(np.radians(8.0))],
+                               atol=1e-12)
+    np.testing.assert_allclose(checks.yaw_rate.up, [0.0, np.cos(np.radians(8.0)), np.sin(np.radians(8.0))],
+                               atol=1e-12)
+    assert np.array_equal(checks.travel.checked(above, speed_mps=10.0), above) and checks.travel.kept_steps == 0

@@ -234,7 +234,10 @@ class FlowGeometryStep(WorkingFrames):
         self.checks.advance((times_s[0], previous), time_s, fit.R)
         key_fit = fit if span.from_previous else road_key_fit
         self.road_length.advance(fit.R, dt_s)
+        taken = len(self.road_length.pitches_taken_deg)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
+        if len(self.road_length.pitches_taken_deg) > taken:  # the drive's pitch: the car's axes turn with it
+            self.checks.turn_car_axes(self.road_length.levelling.T)
         road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
         self.last_view = (time_s, flow, fit, plane)
         self.road_key.end(span, time_s, plane, road_moved_px, (key_fit, fit), road_m, self.speed.last_speed_mps)

@@ -36,6 +36,11 @@ class MotionChecks(Generic[Frame]):
         self.rotation_key: RotationKeyFrame[Frame] = RotationKeyFrame()
         self.rotation_key_steps = 0  # steps whose rotation was measured from an earlier key frame
 
+    def turn_car_axes(self, car_axes: np.ndarray) -> None:
+        """The car's axes are now the columns of ``car_axes`` (the camera's pitch was taken from the drive)."""
+        self.travel.forward = car_axes[:, 2] / np.linalg.norm(car_axes[:, 2])
+        self.yaw_rate.up = car_axes[:, 1] / np.linalg.norm(car_axes[:, 1])
+
     def forget(self) -> None:
         """No motion was measured (a standstill, a step without a fit): the next step starts afresh."""
         self.rotation_key.forget()
