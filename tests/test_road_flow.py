@@ -103,3 +103,5 @@ def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(p
     assert road.grid_px[:, 1].min() == int(94.0 + below + 0.10 * 188)
     assert road.crop[0].start == int(94.0 + below + 0.05 * 188)
     assert road.grid_px[:, 1].max() == level.grid_px[:, 1].max() and road.crop[0].stop == level.crop[0].stop
+    # its still points are judged in the grid's near half (a camera pitched up has a shorter grid)
+    assert road.still.first_row == pytest.approx(94.0 + (below + 0.55 * 188) / 2, abs=1e-9)

@@ -46,8 +46,9 @@ class RoadFlow:
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
-        self.still = StillRegions(working_hw, self.K[1, 2] + working_hw[0] * sum(ROAD_ROWS) / 2, scale,
-                                  cell_px=GRID_MARGIN_PX)  # a cell per grid point: a bonnet's edge cuts through cells
+        self.still = StillRegions(working_hw, self.K[1, 2] + (below_px + working_hw[0] * sum(ROAD_ROWS)) / 2, scale,
+                                  cell_px=GRID_MARGIN_PX)  # a cell per grid point: a bonnet's edge cuts through
+        # cells; judged from the grid's middle row down (a camera pitched up: 21 far points were taken for still)
         self._keep: np.ndarray | None = None  # the grid points outside the still cells (None: all)
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
         self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))

@@ -34,7 +34,7 @@ class StillRegions:
 
     def __init__(self, image_hw: tuple[int, int], first_row: float, scale: float = 1.0,
                  still_share: float = STILL_SHARE, cell_px: float | None = None) -> None:
-        self.still_share = still_share
+        self.still_share, self.first_row = still_share, first_row
         self.cell_px = CELL_PX * scale if cell_px is None else cell_px
         self.min_scene_px = MIN_SCENE_PX * scale
         self.shape = (int(np.ceil(image_hw[0] / self.cell_px)), int(np.ceil(image_hw[1] / self.cell_px)))
