@@ -137,3 +137,23 @@ def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measur
     np.testing.assert_array_equal(stage.normal.normal, kept)
     stage.forget()
     assert stage.normal.normal is None
+
+
+def test_a_pitch_taken_from_a_long_tilt_ahead_is_taken_back_by_the_level_road_after_it():
+    """Planes leaning 6 degrees for 25 steps (a long ramp seen ahead) are taken for the camera's pitch after 20; the
+    level road after them leans -6 degrees against it, and 20 steps later the pitch is back at 0."""
+    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+
+    level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
+    tilted, motion = seen(level @ pitch_rotation(6.0), 0.8, yaw_rad=0.0)
+    stage = road_length()
+    for _ in range(MIN_TILTED_FOR_HINT + 5):
+        stage.measure(tilted, motion, measured=True)
+    assert stage.pitches_taken_deg == [pytest.approx(6.0, abs=1e-6)]
+    flat, motion = seen(level, 0.8, yaw_rad=0.0)
+    for _ in range(MIN_TILTED_FOR_HINT - 1):
+        assert stage.measure(flat, motion, measured=True) == (None, None)  # refused: it leans -6 degrees now
+    stage.measure(flat, motion, measured=True)
+    assert stage.pitches_taken_deg == [pytest.approx(6.0, abs=1e-6), pytest.approx(0.0, abs=1e-6)]
+    plane, road_m = stage.measure(flat, motion, measured=True)
+    assert road_m == pytest.approx(0.8, rel=1e-6)

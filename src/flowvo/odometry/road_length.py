@@ -27,8 +27,10 @@ class RoadLength:
 
     Where the drive's candidate planes say the camera is pitched otherwise (most refused as tilted, leaning alike
     by a degree or more: :meth:`RoadPlaneTally.mounting_hint_deg`), their median pitch is taken from the next step
-    on, and the candidates after it judge it again (a fixed point: a camera pitched 8 degrees down and run as if
-    level is levelled once, then its candidates centre on the road). ``pitches_taken_deg``: the pitches so taken."""
+    on, the road's normal carried so far is dropped, and the candidates after it judge it again (a fixed point: a
+    camera pitched 8 degrees down and run as if level is levelled once, then its candidates centre on the road; a
+    pitch taken from a long tilt ahead is taken back by the level road after it). ``pitches_taken_deg``: the
+    pitches so taken."""
 
     def __init__(self, K: np.ndarray, camera_height_m: float, pitch_deg: float, min_parallax_px: float) -> None:
         self.K, self.camera_height_m, self.pitch_deg = K, camera_height_m, pitch_deg
@@ -76,3 +78,4 @@ class RoadLength:
         self.levelling = pitch_rotation(self.pitch_deg)
         self.pitches_taken_deg.append(round(self.pitch_deg, 2))
         self.tally.restart()
+        self.normal.forget()  # the road's normal carried from before leaned by the pitch just taken
