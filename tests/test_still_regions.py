@@ -42,3 +42,21 @@ def test_a_car_that_drove_along_and_fell_behind_is_let_go():
     assert not regions.keep(GRID).all()
     observe_steps(regions, 4 * MIN_STEPS, np.full(len(GRID), 3.0))  # the same cells move with the road again
     assert regions.keep(GRID).all() and regions.still_cells == 0
+
+
+def test_a_bonnet_band_seen_in_some_of_its_cells_keeps_its_rows_and_everything_below_them_out():
+    """Points on a bonnet are found in only some of its cells: with ``band`` (the tracks' regions), a row of cells a
+    quarter of which stand still is left out whole, and so is every cell below a still one; without it, only the
+    still cells. A single still cell higher up (a watermark) leaves out its column below it, not its row."""
+    seen = BONNET & (GRID[:, 0] < 192)  # a third of the bonnet's width (12 of 39 cells of 16 px) carries points
+    watermark = (GRID[:, 1] >= 128) & (GRID[:, 1] < 144) & (GRID[:, 0] >= 304) & (GRID[:, 0] < 320)  # one cell
+    points = seen | watermark | ~BONNET
+    motion = np.where(seen | watermark, 0.05, 3.0)[points]
+    band, plain = StillRegions(HW, first_row=120, band=True), StillRegions(HW, first_row=120)
+    for regions in (band, plain):
+        for _ in range(MIN_STEPS):
+            regions.observe(GRID[points], motion)
+    np.testing.assert_array_equal(~plain.keep(GRID), seen | watermark)
+    below_watermark = (GRID[:, 0] >= 304) & (GRID[:, 0] < 320) & (GRID[:, 1] >= 128)
+    np.testing.assert_array_equal(~band.keep(GRID), BONNET | below_watermark)
+    assert band.still_cells == plain.still_cells  # what stands still is counted alike

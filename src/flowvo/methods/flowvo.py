@@ -120,7 +120,7 @@ class FlowGeometryStep(WorkingFrames):
             raise FlowvoError(f"{no_room} (check the intrinsics; --method classical needs no road)")
         self.road = RoadFlow(self.camera, self.working_hw, flow_method, scale)
         self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
-                                         STILL_SHARE / 2)
+                                         STILL_SHARE / 2, band=True)
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
                               f"method: its road crop is {self.road.crop_hw[1]}x{self.road.crop_hw[0]} px, the flow "
