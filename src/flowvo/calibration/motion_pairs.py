@@ -127,8 +127,8 @@ def without_still_regions(pairs: list[PointPair], image_size_hw: tuple[int, int]
         regions.observe(pair.first_px, np.linalg.norm(pair.second_px - pair.first_px, axis=1))
     if not regions.still_cells:
         return pairs, 0.0
-    regions.still = binary_dilation(regions.still.reshape(regions.shape)).ravel()  # and the cells next to them:
-    # the edge of a bonnet, whose cells hold some scene too
+    regions.still = regions.kept_out = binary_dilation(regions.still.reshape(regions.shape)).ravel()  # and the
+    # cells next to them: the edge of a bonnet, whose cells hold some scene too
     kept = []
     for pair in pairs:
         keep = regions.keep(pair.first_px) & regions.keep(pair.second_px)
