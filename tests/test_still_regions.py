@@ -60,3 +60,16 @@ def test_a_bonnet_band_seen_in_some_of_its_cells_keeps_its_rows_and_everything_b
     below_watermark = (GRID[:, 0] >= 304) & (GRID[:, 0] < 320) & (GRID[:, 1] >= 128)
     np.testing.assert_array_equal(~band.keep(GRID), BONNET | below_watermark)
     assert band.still_cells == plain.still_cells  # what stands still is counted alike
+
+
+def test_widen_takes_the_four_neighbours_of_each_still_cell():
+    regions = StillRegions(HW, first_row=0)
+    regions.still = np.zeros(regions.shape, bool)
+    regions.still[5, 7] = regions.still[11, 0] = True  # one inside, one on the bottom-left edge
+    regions.still = regions.still.ravel()
+    regions.widen()
+    expected = np.zeros(regions.shape, bool)
+    for r, c in [(5, 7), (4, 7), (6, 7), (5, 6), (5, 8), (11, 0), (10, 0), (11, 1)]:
+        expected[r, c] = True
+    np.testing.assert_array_equal(regions.still.reshape(regions.shape), expected)
+    np.testing.assert_array_equal(regions.kept_out, regions.still)

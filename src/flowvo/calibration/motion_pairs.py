@@ -19,7 +19,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import binary_dilation
 
 from flowvo.odometry.still_regions import STILL_SHARE, StillRegions
 from flowvo.odometry.two_view import textured_points, track_points_checked
@@ -127,8 +126,7 @@ def without_still_regions(pairs: list[PointPair], image_size_hw: tuple[int, int]
         regions.observe(pair.first_px, np.linalg.norm(pair.second_px - pair.first_px, axis=1))
     if not regions.still_cells:
         return pairs, 0.0
-    regions.still = regions.kept_out = binary_dilation(regions.still.reshape(regions.shape)).ravel()  # and the
-    # cells next to them: the edge of a bonnet, whose cells hold some scene too
+    regions.widen()
     kept = []
     for pair in pairs:
         keep = regions.keep(pair.first_px) & regions.keep(pair.second_px)

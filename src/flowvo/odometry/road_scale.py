@@ -371,11 +371,11 @@ class RoadPlaneTally:
         ``MIN_TILTED_FOR_HINT`` of them, leaning alike (``MAX_ALIKE_SPREAD_DEG``), and their median pitch lies
         ``MIN_HINT_DEG`` or more off; else None (with that pitch taken, the candidates after it centre on the road and
         nothing more is taken). Planes refused but scattered say the road's flow is poor, not the mounting."""
-        mounting, spread = self.mounting_deg(), self.pitch_spread_deg()
         trusted, refused = self.trusted - self._since[0], self.refused_as_tilted - self._since[1]
-        if refused < MIN_TILTED_FOR_HINT or refused <= trusted or mounting is None:
+        if refused < MIN_TILTED_FOR_HINT or refused <= trusted:  # the counts first: asked after every candidate
             return None
-        return mounting[0] if abs(mounting[0]) >= MIN_HINT_DEG and spread < MAX_ALIKE_SPREAD_DEG else None
+        pitch_deg = self.mounting_deg()[0]
+        return pitch_deg if abs(pitch_deg) >= MIN_HINT_DEG and self.pitch_spread_deg() < MAX_ALIKE_SPREAD_DEG else None
 
     def record(self) -> dict:
         """The tally as ``run.json`` records it."""

@@ -77,6 +77,18 @@ class StillRegions:
             self.kept_out = _band_below(still, self.shape) if self.band else still
         return changed
 
+    def widen(self) -> None:
+        """Take the cells next to the still ones (above, below and to each side) for still too: the edge of a
+        bonnet, whose cells hold some scene as well."""
+        grid = self.still.reshape(self.shape)
+        wide = grid.copy()
+        wide[1:] |= grid[:-1]
+        wide[:-1] |= grid[1:]
+        wide[:, 1:] |= grid[:, :-1]
+        wide[:, :-1] |= grid[:, 1:]
+        self.still = wide.ravel()
+        self.kept_out = _band_below(self.still, self.shape) if self.band else self.still
+
     def keep(self, points_px: np.ndarray) -> np.ndarray:
         """Which points (N, 2) lie outside the still cells (bool, N)."""
         if not self.kept_out.any():
