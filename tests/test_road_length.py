@@ -5,7 +5,7 @@ the camera height gives."""
 import numpy as np
 import pytest
 
-from flowvo.camera import pitch_rotation
+from flowvo.camera import mounting_rotation, pitch_rotation
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_length import RoadLength
 from flowvo.odometry.two_view import EssentialMotion
@@ -120,6 +120,27 @@ def test_a_camera_pitched_8_degrees_down_taken_for_level_is_levelled_by_its_driv
         assert road_m == pytest.approx(0.8, rel=1e-6)
     assert stage.pitches_taken_deg == [pytest.approx(8.0, abs=1e-6)]
     assert stage.tally.record()["candidates_median_pitch_deg"] == pytest.approx(0.0, abs=1e-4)
+
+
+@pytest.mark.parametrize("pitch_deg, roll_deg", [(0.0, 7.0), (8.0, -6.0)])
+def test_a_rolled_camera_taken_for_level_is_levelled_by_its_drive_once(pitch_deg, roll_deg):
+    """A camera rolled (and pitched) but said level: its planes are refused until their pitch and roll are taken,
+    exactly (the taken mounting read off the road's normal, not added angle by angle), then every plane is trusted
+    with the exact metres and nothing more is taken."""
+    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+
+    road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ mounting_rotation(pitch_deg, roll_deg)
+    road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
+    stage = road_length()
+    for _ in range(MIN_TILTED_FOR_HINT):
+        assert stage.measure(road, motion, measured=True) == (None, None)
+    assert (stage.pitches_taken_deg, stage.rolls_taken_deg) == ([pytest.approx(pitch_deg, abs=1e-6)],
+                                                                [pytest.approx(roll_deg, abs=1e-6)])
+    for _ in range(2 * MIN_TILTED_FOR_HINT):
+        plane, road_m = stage.measure(road, motion, measured=True)
+        assert road_m == pytest.approx(0.8, rel=1e-6)
+    assert len(stage.pitches_taken_deg) == 1
+    np.testing.assert_allclose(plane.normal, mounting_rotation(pitch_deg, roll_deg).T @ [0.0, 1.0, 0.0], atol=1e-6)
 
 
 def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measured_flow():

@@ -302,7 +302,7 @@ def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_plane
     for k in range(MIN_TILTED_FOR_HINT + 5):
         tally.add(leaning(8.0 + 0.1 * (k % 3)), trusted=False)
     tally.add(leaning(1.0), trusted=True)
-    assert tally.mounting_hint_deg() == pytest.approx(8.1)
+    assert tally.mounting_hint_deg() == pytest.approx((8.1, 0.0))
     assert tally.record() == {"trusted": 1, "refused_as_tilted": MIN_TILTED_FOR_HINT + 5,
                               "candidates_median_pitch_deg": 8.1,
                               "candidates_median_roll_deg": 0.0, "candidates_pitch_spread_deg": 0.2}
@@ -311,6 +311,21 @@ def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_plane
     few = RoadPlaneTally()
     few.add(leaning(-9.0), trusted=False)  # refused, but one plane says nothing of the mounting
     assert few.pitches_deg == [pytest.approx(-9.0)] and few.mounting_hint_deg() is None
+
+
+def test_the_tally_reads_a_rolled_camera_and_hints_at_its_roll_alone():
+    """Planes seen by a camera rolled 6 degrees, right side down (its road's normal in its own frame is
+    ``mounting_rotation(0, 6).T @ (0, 1, 0)``), all refused: their roll is 6 degrees and the hint is (0, 6), the
+    pitch left as given."""
+    from flowvo.camera import mounting_rotation
+    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT, RoadPlane, RoadPlaneTally
+
+    tally = RoadPlaneTally()
+    for k in range(MIN_TILTED_FOR_HINT):
+        normal = mounting_rotation(0.1 * (k % 3), 6.0).T @ np.array([0.0, 1.0, 0.0])
+        tally.add(RoadPlane(50.0, normal, 0.5, np.zeros(3)), trusted=False)
+    assert tally.rolls_deg[0] == pytest.approx(6.0)
+    assert tally.mounting_hint_deg() == (0.0, pytest.approx(6.0, abs=1e-3))
 
 
 def test_the_pitch_advised_is_a_fixed_point_once_given_and_scattered_planes_advise_nothing():
@@ -328,9 +343,9 @@ def test_the_pitch_advised_is_a_fixed_point_once_given_and_scattered_planes_advi
         return tally
 
     alike = np.r_[np.linspace(-0.7, 0.7, 40), np.zeros(10) + 6.0]
-    hint = tally_of(-6.0 + alike).mounting_hint_deg()
-    assert hint == pytest.approx(np.median(-6.0 + alike))
-    assert tally_of(-6.0 - hint + alike).mounting_hint_deg() is None
+    hint_deg, no_roll = tally_of(-6.0 + alike).mounting_hint_deg()
+    assert (hint_deg, no_roll) == pytest.approx((np.median(-6.0 + alike), 0.0))
+    assert tally_of(-6.0 - hint_deg + alike).mounting_hint_deg() is None
     scattered = tally_of(-3.0 + np.linspace(-9.0, 9.0, 60))  # most refused, over 9 degrees of inter-quartile range
     assert scattered.refused_as_tilted > scattered.trusted and scattered.mounting_hint_deg() is None
     assert scattered.record()["candidates_pitch_spread_deg"] == pytest.approx(9.0, abs=0.2)

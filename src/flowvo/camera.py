@@ -220,6 +220,26 @@ def pitch_rotation(pitch_deg: float) -> np.ndarray:
                      [0.0, -math.sin(pitch), math.cos(pitch)]])
 
 
+def roll_rotation(roll_deg: float) -> np.ndarray:
+    """``R_level_cam`` (3, 3): a camera rolled by ``roll_deg`` (degrees) about its optical axis, its right side
+    lower when positive, in the frame of an unrolled camera at the same place (its x axis there is ``(cos, sin, 0)``,
+    y down)."""
+    roll = math.radians(roll_deg)
+    return np.array([[math.cos(roll), -math.sin(roll), 0.0], [math.sin(roll), math.cos(roll), 0.0], [0.0, 0.0, 1.0]])
+
+
+def mounting_rotation(pitch_deg: float, roll_deg: float) -> np.ndarray:
+    """``R_level_cam`` (3, 3) of a camera pitched down by ``pitch_deg`` and then rolled by ``roll_deg`` about its own
+    optical axis (degrees; :func:`pitch_rotation`, :func:`roll_rotation`)."""
+    return pitch_rotation(pitch_deg) @ roll_rotation(roll_deg)
+
+
+def mounting_of_road_normal(normal: np.ndarray) -> tuple[float, float]:
+    """The pitch and roll (degrees, as :func:`mounting_rotation` takes them) of a camera that sees the road's downward
+    unit ``normal`` (3,) in its own frame: the inverse of ``mounting_rotation(p, r).T @ (0, 1, 0)``."""
+    return math.degrees(math.asin(float(np.clip(normal[2], -1.0, 1.0)))), math.degrees(math.atan2(normal[0], normal[1]))
+
+
 def check_camera_pitch(pitch_deg: float, where: str | None = None) -> float:
     """``pitch_deg`` when it is a plausible mounting pitch (degrees, down positive); a one-line error otherwise."""
     if not (isinstance(pitch_deg, int | float) and math.isfinite(pitch_deg)

@@ -33,9 +33,11 @@ def command(args: argparse.Namespace) -> int:
     print(_camera_line(summary))
     planes = summary.get("road_planes", {})
     if taken := planes.get("pitches_taken_deg"):
-        print(f"note: the camera's pitch was taken from the drive: {taken[-1]:.1f} deg down (its road planes leaned "
-              f"alike; {planes['refused_as_tilted']} refused as tilted): --camera-pitch {taken[-1]:.1f} measures with "
-              "it from the first frame (docs/camera.md)")
+        rolled = planes["rolls_taken_deg"][-1]
+        roll = f", rolled {rolled:.1f} deg (right side down)" if rolled else ""
+        print(f"note: the camera's mounting was taken from the drive: pitched {taken[-1]:.1f} deg down{roll} (its road "
+              f"planes leaned alike; {planes['refused_as_tilted']} refused as tilted): --camera-pitch {taken[-1]:.1f} "
+              "measures with its pitch from the first frame (docs/camera.md)")
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     print(drive_line(summary["drive"]))

@@ -236,7 +236,7 @@ class FlowGeometryStep(WorkingFrames):
         self.road_length.advance(fit.R, dt_s)
         taken = len(self.road_length.pitches_taken_deg)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
-        if len(self.road_length.pitches_taken_deg) > taken:  # the drive's pitch: the car's axes turn with it
+        if len(self.road_length.pitches_taken_deg) > taken:  # the drive's mounting: the car's axes turn with it
             self.checks.turn_car_axes(self.road_length.levelling.T)
         road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
         self.last_view = (time_s, flow, fit, plane)
@@ -366,7 +366,8 @@ class FlowGeometryStep(WorkingFrames):
         lower soon after a standstill), and the window stage's record (:meth:`WindowStage.summary`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_length.tally.record() | \
-            {"pitches_taken_deg": self.road_length.pitches_taken_deg}
+            {"pitches_taken_deg": self.road_length.pitches_taken_deg,
+             "rolls_taken_deg": self.road_length.rolls_taken_deg}
         kept.update(self.checks.summary())
         kept["still_regions"] = {"road_cells": self.road.still.still_cells,
                                  "track_cells": self.still_tracks.still_cells}

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.camera import pitch_rotation
+from flowvo.camera import mounting_of_road_normal, mounting_rotation
 from flowvo.odometry.road_scale import (
     RoadNormal,
     RoadPlane,
@@ -25,17 +25,18 @@ class RoadLength:
     pitched ``pitch_deg`` down (degrees; its road planes are judged in the road-levelled frame);
     ``min_parallax_px``: the road motion beyond the rotation that nine road points in ten must show.
 
-    Where the drive's candidate planes say the camera is pitched otherwise (most refused as tilted, leaning alike
-    by a degree or more: :meth:`RoadPlaneTally.mounting_hint_deg`), their median pitch is taken from the next step
-    on, the road's normal carried so far is dropped, and the candidates after it judge it again (a fixed point: a
-    camera pitched 8 degrees down and run as if level is levelled once, then its candidates centre on the road; a
-    pitch taken from a long tilt ahead is taken back by the level road after it). ``pitches_taken_deg``: the
-    pitches so taken."""
+    Where the drive's candidate planes say the camera is pitched or rolled otherwise (most refused as tilted, leaning
+    alike by a degree or more: :meth:`RoadPlaneTally.mounting_hint_deg`), their median pitch and roll are taken from
+    the next step on, the road's normal carried so far is dropped, and the candidates after it judge them again (a
+    fixed point: a camera pitched 8 degrees down and run as if level is levelled once, then its candidates centre on
+    the road; a pitch taken from a long tilt ahead is taken back by the level road after it). ``pitches_taken_deg``,
+    ``rolls_taken_deg``: the mountings so taken (degrees, :func:`flowvo.camera.mounting_rotation`)."""
 
     def __init__(self, K: np.ndarray, camera_height_m: float, pitch_deg: float, min_parallax_px: float) -> None:
-        self.K, self.camera_height_m, self.pitch_deg = K, camera_height_m, pitch_deg
-        self.levelling = pitch_rotation(pitch_deg) if pitch_deg else None
+        self.K, self.camera_height_m, self.pitch_deg, self.roll_deg = K, camera_height_m, pitch_deg, 0.0
+        self.levelling = mounting_rotation(pitch_deg, 0.0) if pitch_deg else None
         self.pitches_taken_deg: list[float] = []
+        self.rolls_taken_deg: list[float] = []
         self.min_parallax_px = min_parallax_px
         self.normal = RoadNormal()
         self.tally = RoadPlaneTally()
@@ -70,12 +71,17 @@ class RoadLength:
         return plane, self.camera_height_m / plane.distance
 
     def _level_by_the_drive(self) -> None:
-        """Take the pitch the candidate planes agree on (see the class docstring)."""
+        """Take the pitch and roll the candidate planes agree on (see the class docstring): the road's normal they
+        lean to, in the camera's frame, read as a mounting."""
         hint_deg = self.tally.mounting_hint_deg()
         if hint_deg is None:
             return
-        self.pitch_deg += hint_deg
-        self.levelling = pitch_rotation(self.pitch_deg)
+        pitch, roll = np.radians(hint_deg)
+        leaning = np.array([np.tan(roll), 1.0, np.tan(pitch)])  # the tally's angles: atan2(z, y) and atan2(x, y)
+        levelling = np.eye(3) if self.levelling is None else self.levelling
+        self.pitch_deg, self.roll_deg = mounting_of_road_normal(levelling.T @ (leaning / np.linalg.norm(leaning)))
+        self.levelling = mounting_rotation(self.pitch_deg, self.roll_deg)
         self.pitches_taken_deg.append(round(self.pitch_deg, 2))
+        self.rolls_taken_deg.append(round(self.roll_deg, 2))
         self.tally.restart()
-        self.normal.forget()  # the road's normal carried from before leaned by the pitch just taken
+        self.normal.forget()  # the road's normal carried from before leaned by the mounting just taken
