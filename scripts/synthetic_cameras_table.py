@@ -2,8 +2,8 @@
 camera and by other cameras (each change alone, then all together), t_err and the estimated path length
 against the truth, and the road planes trusted and refused as tilted. Then cameras pitched down or up, told so by
 their calib.txt, and run as if level; a bonnet; a strong barrel lens; and a dash-cam (bonnet, pitched 3 degrees
-down, that lens, 1.3 m high, 25 frames/s), told its pitch, then not told: run as if level, then given the pitch
-that run advises, to see whether the advice settles.
+down, that lens, 1.3 m high, 25 frames/s), told its pitch, then not told (run as if level); cameras rolled, whose
+roll no calib.txt tells.
 
 Usage: python scripts/synthetic_cameras_table.py OUT_DIR [--frames 300] [--seed 3] [--scale 0.5]
        [--max-speed 12] [--lengths 25 50 75 100] [--rows 0 8 9]
@@ -43,8 +43,11 @@ CAMERAS = {
     "barrel k1 -0.35 k2 0.1 (told)": SynthCamera(distortion=STRONG_BARREL),
     "the dash-cam: bonnet, 3 deg down, k1 -0.35 k2 0.1, 1.3 m, 25 fps (told all)": DASH_CAM,
     NOT_TOLD: DASH_CAM,
+    "rolled 6 deg, right side down (not told: calib.txt has no roll)": SynthCamera(roll_deg=6.0),
+    "pitched 5 deg down, rolled 4 deg left side down, run as if level": SynthCamera(pitch_deg=5.0, roll_deg=-4.0),
 }
-TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0, NOT_TOLD: 0.0}  # run options that
+TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0, NOT_TOLD: 0.0,
+                  "pitched 5 deg down, rolled 4 deg left side down, run as if level": 0.0}  # run options that
 # override the camera's calib.txt
 
 
@@ -61,7 +64,7 @@ def main() -> None:
     print(f"seed {args.seed}, {(args.frames - 1) / PATH_RATE_HZ:g} s drive, scale {args.scale:g}, sub-paths "
           f"{' '.join(f'{m:g}' for m in args.lengths)} m")
     print("| camera | frames | t_err % | r_err deg/m | path length vs truth | t_err / KITTI camera's "
-          "| road planes trusted / refused as tilted | pitch taken from the drive |")
+          "| road planes trusted / refused as tilted | pitch, roll taken from the drive (deg) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     rows = set(args.rows or range(len(CAMERAS))) | {0}
     reference, rendered = None, {}
@@ -82,11 +85,12 @@ def main() -> None:
 
 
 def _row(label: str, summary: dict, root: Path, out: Path, reference: float) -> str:
-    """One table row: the run's scores against the truth, its road planes and the pitch it took from the drive."""
+    """One table row: the run's scores against the truth, its road planes and the mountings it took from the drive."""
     metrics, planes = summary["metrics"], summary["road_planes"]
     truth = trajectory_distances(read_kitti_poses(root / "poses" / "00.txt").positions)[-1]
     length = trajectory_distances(read_kitti_poses(out / "00.txt").positions)[-1]
-    taken = ", ".join(f"{pitch_deg:.1f}" for pitch_deg in planes["pitches_taken_deg"]) or "none"
+    taken = "; ".join(f"{pitch_deg:.1f}, {roll_deg:.1f}" for pitch_deg, roll_deg in
+                      zip(planes["pitches_taken_deg"], planes["rolls_taken_deg"], strict=True)) or "none"
     return (f"| {label} | {summary['frames']} | {metrics['t_err_percent']:.2f} | {metrics['r_err_deg_per_m']:.4f} "
             f"| {100 * (length / truth - 1):+.1f} % of {truth:.0f} m | {metrics['t_err_percent'] / reference:.2f}x "
             f"| {planes['trusted']} / {planes['refused_as_tilted']} | {taken} |")

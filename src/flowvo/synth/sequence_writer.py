@@ -54,10 +54,10 @@ class SynthSpec:
 
     def frame_poses(self) -> np.ndarray:
         """Camera-to-world poses (F, 4, 4) of the rendered frames, at the camera's frame rate; the drive's
-        poses are a level camera's, the rendered camera is pitched on it by its mounting."""
+        poses are a level camera's, the rendered camera is pitched and rolled on it by its mounting."""
         frames = self.frames or frames_spanning(len(self.T_world_cam), PATH_RATE_HZ, self.camera.fps)
         level = resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, frames)
-        return level if not self.camera.pitch_deg else level @ self.camera.mounting()
+        return level if not (self.camera.pitch_deg or self.camera.roll_deg) else level @ self.camera.mounting()
 
 
 RENDERER_GENERATION = 2  # raised when the same spec renders other frames (2: the road ahead on climbs), so that
@@ -75,6 +75,8 @@ def spec_digest(spec: SynthSpec) -> str:
         digest.update(repr((spec.camera, spec.frames)).encode())
     if spec.camera.bonnet_rows:
         digest.update(f"bonnet {spec.camera.bonnet_rows!r}".encode())
+    if spec.camera.roll_deg:
+        digest.update(f"roll {spec.camera.roll_deg!r}".encode())
     return digest.hexdigest()
 
 

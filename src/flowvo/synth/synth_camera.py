@@ -19,7 +19,7 @@ from flowvo.camera import (
     check_camera_height,
     check_camera_pitch,
     distort_points,
-    pitch_rotation,
+    mounting_rotation,
     undistort_points,
 )
 from flowvo.errors import FlowvoError
@@ -29,6 +29,7 @@ from flowvo.synth.camera_path import FRAME_PERIOD_S
 PATH_RATE_HZ = 1.0 / FRAME_PERIOD_S  # generated and replayed (KITTI) paths are sampled at 10 Hz
 FOV_RANGE_DEG = (20.0, 150.0)  # a pinhole image beyond ~150 deg is mostly stretched periphery
 FPS_RANGE_HZ = (1.0, 120.0)  # slower than 1 Hz the road leaves the view between frames; 120 Hz is a fast camera
+MAX_ROLL_DEG = 15.0  # a camera rolled further shows the horizon across a third of a KITTI-shaped frame's height
 LENS_ROUND_TRIP_PX = 0.05  # undistort-then-distort error (px) above which the lens model is not invertible there
 LENS_CHECK_SAMPLES = 200  # points per centre-to-corner line of the one-to-one check
 
@@ -37,8 +38,9 @@ LENS_CHECK_SAMPLES = 200  # points per centre-to-corner line of the one-to-one c
 class SynthCamera:
     """``height_m`` above the road (metres), horizontal field of view ``fov_deg`` (degrees over the image
     width; None = KITTI's focal length, ~81.6 deg), lens ``distortion``, frame rate ``fps`` (Hz) and
-    ``pitch_deg``, how far the camera is pitched down from level (degrees), and ``bonnet_rows``, the share of the
-    image height a static bonnet covers at the bottom (0: none; :mod:`flowvo.synth.bonnet`)."""
+    ``pitch_deg``, how far the camera is pitched down from level (degrees), ``roll_deg``, how far it is rolled about
+    its optical axis, right side down (degrees), and ``bonnet_rows``, the share of the image height a static bonnet
+    covers at the bottom (0: none; :mod:`flowvo.synth.bonnet`)."""
 
     height_m: float = KITTI_CAMERA_HEIGHT_M
     fov_deg: float | None = None
@@ -47,10 +49,14 @@ class SynthCamera:
     pitch_deg: float = 0.0
     bonnet_rows: float = field(default=0.0, repr=False)  # out of the repr, so that the digests of renders made
     # before the bonnet existed stay the same (spec_digest adds it when there is one)
+    roll_deg: float = field(default=0.0, repr=False)  # likewise
 
     def __post_init__(self) -> None:
         check_camera_height(self.height_m, "--camera-height")
         check_camera_pitch(self.pitch_deg, "--camera-pitch")
+        if not (math.isfinite(self.roll_deg) and abs(self.roll_deg) <= MAX_ROLL_DEG):
+            raise FlowvoError(f"--camera-roll {self.roll_deg:g}: use a roll in [-{MAX_ROLL_DEG:g}, {MAX_ROLL_DEG:g}] "
+                              "degrees")
         if self.fov_deg is not None and not FOV_RANGE_DEG[0] <= self.fov_deg <= FOV_RANGE_DEG[1]:
             raise FlowvoError(f"--fov {self.fov_deg:g}: use a horizontal field of view in "
                               f"[{FOV_RANGE_DEG[0]:g}, {FOV_RANGE_DEG[1]:g}] degrees")
@@ -72,16 +78,18 @@ class SynthCamera:
         return width_px / 2.0 / math.tan(math.radians(self.fov_deg) / 2.0)
 
     def mounting(self) -> np.ndarray:
-        """``T_level_cam`` (4, 4): the camera pitched down by ``pitch_deg`` about its x axis, in the frame of a
-        level camera at the same place (:func:`flowvo.camera.pitch_rotation`)."""
+        """``T_level_cam`` (4, 4): the camera pitched down by ``pitch_deg`` about its x axis and rolled by
+        ``roll_deg`` about its optical axis, in the frame of a level camera at the same place
+        (:func:`flowvo.camera.mounting_rotation`)."""
         T = np.eye(4)
-        T[:3, :3] = pitch_rotation(self.pitch_deg)
+        T[:3, :3] = mounting_rotation(self.pitch_deg, self.roll_deg)
         return T
 
     def record(self) -> dict:
-        """The camera as ``synthetic.json`` records it (the pitch and the bonnet when it has them: renders of
+        """The camera as ``synthetic.json`` records it (the pitch, the roll and the bonnet when it has them: renders of
         level cameras without a bonnet made before the options keep their record, and resume)."""
         pitch = {"pitch_deg": self.pitch_deg} if self.pitch_deg else {}
+        pitch |= {"roll_deg": self.roll_deg} if self.roll_deg else {}
         bonnet = {"bonnet_rows": self.bonnet_rows} if self.bonnet_rows else {}
         return {"camera_height_m": self.height_m, "fov_deg": self.fov_deg, "distortion_model": self.distortion.model,
                 "distortion": list(self.distortion.coefficients), "fps": self.fps, **pitch, **bonnet}
