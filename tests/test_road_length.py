@@ -143,6 +143,30 @@ def test_a_rolled_camera_taken_for_level_is_levelled_by_its_drive_once(pitch_deg
     np.testing.assert_allclose(plane.normal, mounting_rotation(pitch_deg, roll_deg).T @ [0.0, 1.0, 0.0], atol=1e-6)
 
 
+def test_a_mounting_taken_from_the_drive_is_taken_back_by_planes_the_gate_trusts():
+    """A roll of 6 degrees taken from a stretch of road rolled against the camera (every plane there refused) is the
+    drive's estimate: the road after it, rolled 3 degrees, leans 3 degrees back, inside the 4-degree gate, its
+    planes trusted, and after 20 of them the roll taken is 3 (a camera given no take needs most planes refused: those
+    planes alone would take nothing)."""
+    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+
+    level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
+    rolled, motion = seen(level @ mounting_rotation(0.0, 6.0), 0.8, yaw_rad=0.0)
+    stage = road_length()
+    for _ in range(MIN_TILTED_FOR_HINT):
+        stage.measure(rolled, motion, measured=True)
+    assert stage.rolls_taken_deg == [pytest.approx(6.0, abs=1e-6)]
+    less_rolled, motion = seen(level @ mounting_rotation(0.0, 3.0), 0.8, yaw_rad=0.0)
+    for _ in range(MIN_TILTED_FOR_HINT):
+        plane, road_m = stage.measure(less_rolled, motion, measured=True)
+        assert road_m == pytest.approx(0.8, rel=1e-6)  # trusted
+    assert stage.rolls_taken_deg == [pytest.approx(6.0, abs=1e-6), pytest.approx(3.0, abs=1e-6)]
+    fresh = road_length()
+    for _ in range(2 * MIN_TILTED_FOR_HINT):
+        fresh.measure(less_rolled, motion, measured=True)
+    assert fresh.rolls_taken_deg == []
+
+
 def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measured_flow():
     """A level road, then a road pitched 2 degrees measured poorly (``measured=False``): that plane takes the
     carried normal's blend but leaves it as it was, so the next level road comes back exactly level."""
@@ -162,7 +186,8 @@ def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measur
 
 def test_a_pitch_taken_from_a_long_tilt_ahead_is_taken_back_by_the_level_road_after_it():
     """Planes leaning 6 degrees for 25 steps (a long ramp seen ahead) are taken for the camera's pitch after 20; the
-    level road after them leans -6 degrees against it, and 20 steps later the pitch is back at 0."""
+    level road after them leans -6 degrees against it, and once 20 candidates followed the take (5 of them still on the
+    ramp, so after 15 level steps: their median leans -6) the pitch is back at 0."""
     from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
 
     level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
@@ -172,7 +197,7 @@ def test_a_pitch_taken_from_a_long_tilt_ahead_is_taken_back_by_the_level_road_af
         stage.measure(tilted, motion, measured=True)
     assert stage.pitches_taken_deg == [pytest.approx(6.0, abs=1e-6)]
     flat, motion = seen(level, 0.8, yaw_rad=0.0)
-    for _ in range(MIN_TILTED_FOR_HINT - 1):
+    for _ in range(MIN_TILTED_FOR_HINT - 5 - 1):
         assert stage.measure(flat, motion, measured=True) == (None, None)  # refused: it leans -6 degrees now
     stage.measure(flat, motion, measured=True)
     assert stage.pitches_taken_deg == [pytest.approx(6.0, abs=1e-6), pytest.approx(0.0, abs=1e-6)]

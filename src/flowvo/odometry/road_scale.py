@@ -354,6 +354,7 @@ class RoadPlaneTally:
         self.pitches_deg: list[float] = []
         self.rolls_deg: list[float] = []
         self._since = (0, 0)  # (trusted, refused as tilted) when the pitches were last cleared (:meth:`restart`)
+        self._taken = False  # a mounting was taken from the drive (:meth:`restart`)
 
     def add(self, plane: RoadPlane, trusted: bool, max_tilt_rad: float = MAX_ROAD_TILT_RAD) -> None:
         """Count a candidate plane (level frame) and whether it was trusted."""
@@ -363,10 +364,11 @@ class RoadPlaneTally:
         self.rolls_deg.append(float(np.degrees(np.arctan2(plane.normal[0], plane.normal[1]))))
 
     def restart(self) -> None:
-        """The camera's pitch changed (taken from the drive): the mounting is estimated afresh from the candidates
-        after now; the counts go on."""
+        """The camera's mounting changed (taken from the drive): it is estimated afresh from the candidates after
+        now; the counts go on."""
         self.pitches_deg, self.rolls_deg = [], []
         self._since = (self.trusted, self.refused_as_tilted)
+        self._taken = True
 
     def mounting_deg(self) -> tuple[float, float] | None:
         """The camera's pitch and roll relative to the ones given (degrees), the medians over every candidate plane;
@@ -381,12 +383,18 @@ class RoadPlaneTally:
 
     def mounting_hint_deg(self) -> tuple[float, float] | None:
         """The pitch and roll to add to the ones given (degrees) when most candidate planes were refused as tilted,
-        at least ``MIN_TILTED_FOR_HINT`` of them: each the candidates' median where they lean alike in it
+        at least ``MIN_TILTED_FOR_HINT`` of them, or, once a mounting was taken from the drive, after as many
+        candidates whatever became of them: each the candidates' median where they lean alike in it
         (``MAX_ALIKE_SPREAD_DEG``) by ``MIN_HINT_DEG`` or more, else 0; None when neither is (with the mounting taken,
         the candidates after it centre on the road and nothing more is taken). Planes refused but scattered say the
-        road's flow is poor, not the mounting."""
+        road's flow is poor, not the mounting. A mounting taken is the drive's estimate, not the user's: where a
+        stretch of road rolled against the camera (a rendered world's, synthetic 08: 2.7 degrees) gave it, the
+        road after the stretch leans back by less than the gate, its planes trusted, and takes it back all the same."""
         trusted, refused = self.trusted - self._since[0], self.refused_as_tilted - self._since[1]
-        if refused < MIN_TILTED_FOR_HINT or refused <= trusted:  # the counts first: asked after every candidate
+        if self._taken:
+            if trusted + refused < MIN_TILTED_FOR_HINT:
+                return None
+        elif refused < MIN_TILTED_FOR_HINT or refused <= trusted:  # the counts first: asked after every candidate
             return None
         hint = tuple(_alike_median_deg(angles) for angles in (self.pitches_deg, self.rolls_deg))
         return None if hint == (0.0, 0.0) else hint
