@@ -182,8 +182,8 @@ def test_without_a_trusted_road_the_network_measures_after_a_second():
     assert len(calls) == 5 and step.summary()["network_distance_steps"] == 5  # after 1 s: t + 0.1 > 1.1
     assert step.summary()["road_planes"] == {"trusted": 1, "refused_as_tilted": 0,
                                              "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None,
-                                             "candidates_pitch_spread_deg": None, "pitches_taken_deg": [],
-                                             "rolls_taken_deg": []}
+                                             "candidates_pitch_spread_deg": None, "ground_cells_off_road": 0,
+                                             "pitches_taken_deg": [], "rolls_taken_deg": []}
     assert lengths[0] == pytest.approx(1.0, rel=1e-4) and lengths[-1] > 1.0  # the prior, then the network's 2 m pull
 
 

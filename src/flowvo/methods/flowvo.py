@@ -365,7 +365,7 @@ class FlowGeometryStep(WorkingFrames):
         than a car could have driven (``speed_limit``: 45 m/s for a camera 1.65 m high, in proportion to the height,
         lower soon after a standstill), and the window stage's record (:meth:`WindowStage.summary`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
-        kept["road_planes"] = self.road_length.tally.record() | \
+        kept["road_planes"] = self.road_length.tally.record() | self.road_length.profile.record() | \
             {"pitches_taken_deg": self.road_length.pitches_taken_deg,
              "rolls_taken_deg": self.road_length.rolls_taken_deg}
         kept.update(self.checks.summary())

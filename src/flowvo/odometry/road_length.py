@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.camera import mounting_of_road_normal, mounting_rotation
+from flowvo.odometry.road_profile import RoadProfile
 from flowvo.odometry.road_scale import (
     RoadNormal,
     RoadPlane,
@@ -40,6 +41,7 @@ class RoadLength:
         self.min_parallax_px = min_parallax_px
         self.normal = RoadNormal()
         self.tally = RoadPlaneTally()
+        self.profile = RoadProfile()
         self.near_parallax_px = 0.0  # the last trusted plane's near road motion beyond the rotation (pixels; 0: none)
 
     def advance(self, R_next_prev: np.ndarray, dt_s: float) -> None:
@@ -62,7 +64,8 @@ class RoadLength:
         near_px = near_road_parallax_px(road[0], road[1], self.K, key_fit.R)
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
-        plane = trusted_road_plane(road[0], road[1], self.K, key_fit, levelling=self.levelling, tally=self.tally)
+        plane = trusted_road_plane(road[0], road[1], self.K, key_fit, levelling=self.levelling, tally=self.tally,
+                                   profile=self.profile)
         self._level_by_the_drive()
         if plane is None:
             return None, None
@@ -84,4 +87,5 @@ class RoadLength:
         self.pitches_taken_deg.append(round(self.pitch_deg, 2))
         self.rolls_taken_deg.append(round(self.roll_deg, 2))
         self.tally.restart()
+        self.profile.forget()  # its cells were judged in the frame before
         self.normal.forget()  # the road's normal carried from before leaned by the mounting just taken

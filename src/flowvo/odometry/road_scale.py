@@ -9,10 +9,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px, triangulate
+
+if TYPE_CHECKING:
+    from flowvo.odometry.road_profile import RoadProfile
 
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
@@ -150,21 +154,28 @@ MAX_ROAD_TILT_RAD = np.radians(4.0)
 MIN_ROAD_INLIER_FRACTION = 0.05
 
 
-def road_plane_candidate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
-                         min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
-    """The plane fitted to road correspondences (distance in units of the step), before the gates of
-    :func:`is_trusted_road`, in the level frame (``levelling``: for a camera not mounted level, the rotation
-    from its frame to a level camera's, :attr:`flowvo.camera.Camera.road_levelling`; None: the camera's own
-    frame). None when no plane is found, and when nine in ten road points moved less than ``min_parallax_px``
-    (pixels) beyond what the rotation explains: a road whose flow is lost (no texture, a car right in front
-    moving along) has no depth to triangulate (the nearest rows move most, hence the 90th percentile: at
-    walking pace the far rows barely move)."""
+def road_points(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> np.ndarray | None:
+    """The road correspondences triangulated (N, 3; units of the step) in the level frame (``levelling``: for a
+    camera not mounted level, the rotation from its frame to a level camera's,
+    :attr:`flowvo.camera.Camera.road_levelling`; None: the camera's own frame). None for fewer than
+    ``MIN_ROAD_POINTS``, and when nine in ten road points moved less than ``min_parallax_px`` (pixels) beyond what
+    the rotation explains: a road whose flow is lost (no texture, a car right in front moving along) has no depth to
+    triangulate (the nearest rows move most, hence the 90th percentile: at walking pace the far rows barely move)."""
     if len(points_prev) < MIN_ROAD_POINTS:  # every road point left the frame, say
         return None
     if min_parallax_px and near_road_parallax_px(points_prev, points_next, K, motion.R) < min_parallax_px:
         return None
     points = triangulate(points_prev, points_next, K, motion)
-    return fit_road_plane(points if levelling is None else points @ levelling.T)
+    return points if levelling is None else points @ levelling.T
+
+
+def road_plane_candidate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
+                         min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
+    """The plane fitted to road correspondences (distance in units of the step), before the gates of
+    :func:`is_trusted_road`, in the level frame (:func:`road_points`); None when no plane is found or no points."""
+    points = road_points(points_prev, points_next, K, motion, min_parallax_px, levelling)
+    return None if points is None else fit_road_plane(points)
 
 
 def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
@@ -186,16 +197,22 @@ def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane
 def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
                        max_tilt_rad: float = MAX_ROAD_TILT_RAD, min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION,
                        min_parallax_px: float = 0.0, levelling: np.ndarray | None = None,
-                       tally: RoadPlaneTally | None = None) -> RoadPlane | None:
+                       tally: RoadPlaneTally | None = None, profile: RoadProfile | None = None) -> RoadPlane | None:
     """The road plane the camera stands on, from road correspondences (distance in units of the step, the
-    camera's frame), or None: :func:`road_plane_candidate` that passes :func:`is_trusted_road`; each
-    candidate is counted in ``tally`` when given."""
-    plane = road_plane_candidate(points_prev, points_next, K, motion, min_parallax_px, levelling)
+    camera's frame), or None: the plane fitted to the :func:`road_points` that passes :func:`is_trusted_road`; each
+    candidate is counted in ``tally`` when given. With a ``profile``, the points it keeps are fitted, and it learns
+    from every trusted plane (:class:`flowvo.odometry.road_profile.RoadProfile`)."""
+    points = road_points(points_prev, points_next, K, motion, min_parallax_px, levelling)
+    if points is None:
+        return None
+    plane = fit_road_plane(points if profile is None else points[profile.keep(points)])
     if plane is None:
         return None
     trusted = is_trusted_road(plane, max_tilt_rad, min_inlier_fraction)
     if tally is not None:
         tally.add(plane, trusted, max_tilt_rad)
+    if trusted and profile is not None:
+        profile.observe(points, plane)
     return in_camera_frame(plane, levelling) if trusted else None
 
 
