@@ -86,8 +86,10 @@ class RoadProfile:
         self._seen[cells] += 1
         judged = self._seen >= MIN_CELL_STEPS
         self.off_road[:] = False
-        if judged.any():
-            medians = np.nanmedian(self._medians[:, judged], axis=0)
+        if judged.any():  # each judged cell's median over its steps seen (the NaNs of unfilled rows sort last)
+            ordered = np.sort(self._medians[:, judged], axis=0)
+            count, columns = np.minimum(self._seen[judged], PROFILE_STEPS), np.arange(judged.sum())
+            medians = (ordered[(count - 1) // 2, columns] + ordered[count // 2, columns]) / 2
             self.off_road[judged] = np.abs(medians) > OFF_ROAD_SHARE
 
     def forget(self) -> None:
