@@ -1,7 +1,7 @@
 import json
 
 from flowvo.cli import build_parser, main
-from flowvo.cli.run import _unscaled_warning
+from flowvo.cli.run import _mounting_note, _unscaled_warning
 
 
 def test_every_subcommand_has_help(capsys):
@@ -51,3 +51,15 @@ def test_a_run_whose_steps_mostly_lack_a_scale_warns_and_names_the_step_records(
     assert warning.startswith("warning: 30 of 110 moving steps") and "OUT/00_steps.csv" in warning
     assert _unscaled_warning(summary(11), "OUT") is None  # a tenth of the moving steps is tolerated
     assert _unscaled_warning({"steps": None}, "OUT") is None  # a method without a window
+
+
+def test_the_mounting_note_names_what_was_taken_and_advises_only_the_pitch():
+    def planes(pitches, rolls):
+        return {"pitches_taken_deg": pitches, "rolls_taken_deg": rolls, "refused_as_tilted": 21}
+
+    assert _mounting_note(planes([], []), 0.0) is None
+    pitched = _mounting_note(planes([8.3], [0.0]), 0.0)
+    assert "pitched 8.3 deg down" in pitched and "--camera-pitch 8.3" in pitched and "rolled" not in pitched
+    rolled = _mounting_note(planes([3.0], [5.3]), 3.0)  # the pitch was given: only the roll was taken
+    assert "rolled 5.3 deg (right side down)" in rolled and "--camera-pitch" not in rolled and "pitched" not in rolled
+    assert "21 refused as tilted" in rolled

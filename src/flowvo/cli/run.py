@@ -32,12 +32,8 @@ def command(args: argparse.Namespace) -> int:
         print(_estimate_line(summary["camera"]))
     print(_camera_line(summary))
     planes = summary.get("road_planes", {})
-    if taken := planes.get("pitches_taken_deg"):
-        rolled = planes["rolls_taken_deg"][-1]
-        roll = f", rolled {rolled:.1f} deg (right side down)" if rolled else ""
-        print(f"note: the camera's mounting was taken from the drive: pitched {taken[-1]:.1f} deg down{roll} (its road "
-              f"planes leaned alike; {planes['refused_as_tilted']} refused as tilted): --camera-pitch {taken[-1]:.1f} "
-              "measures with its pitch from the first frame (docs/camera.md)")
+    if note := _mounting_note(planes, summary["camera"]["camera_pitch_deg"]):
+        print(note)
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     print(drive_line(summary["drive"]))
@@ -89,6 +85,21 @@ def drive_line(drive: dict) -> str:
             f"{drive['mean_speed_mps']:.1f} m/s ({3.6 * drive['mean_speed_mps']:.0f} km/h), top "
             f"{drive['top_speed_mps']:.1f} m/s ({3.6 * drive['top_speed_mps']:.0f} km/h, over 1 s), heading change "
             f"{drive['heading_change_deg']:+.1f} deg (left +)")
+
+
+def _mounting_note(planes: dict, given_pitch_deg: float) -> str | None:
+    """The note on a mounting taken from the drive (``run.json``'s ``road_planes``), or None when none was: the
+    pitch and roll taken and, where the pitch differs from the one given, the option that gives it from the first
+    frame (no option gives a roll)."""
+    if not planes.get("pitches_taken_deg"):
+        return None
+    pitch_deg, roll_deg = planes["pitches_taken_deg"][-1], planes["rolls_taken_deg"][-1]
+    taken = ([f"pitched {pitch_deg:.1f} deg down"] if round(pitch_deg - given_pitch_deg, 1) else []) + \
+        ([f"rolled {roll_deg:.1f} deg (right side down)"] if round(roll_deg, 1) else [])
+    advice = f": --camera-pitch {pitch_deg:.1f} measures with its pitch from the first frame" if \
+        round(pitch_deg - given_pitch_deg, 1) else ""
+    return (f"note: the camera's mounting was taken from the drive: {', '.join(taken) or 'as given'} (its road planes "
+            f"leaned alike; {planes['refused_as_tilted']} refused as tilted){advice} (docs/camera.md)")
 
 
 def _camera_line(summary: dict) -> str:
