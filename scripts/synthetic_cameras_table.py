@@ -45,9 +45,11 @@ CAMERAS = {
     NOT_TOLD: DASH_CAM,
     "rolled 6 deg, right side down (not told: calib.txt has no roll)": SynthCamera(roll_deg=6.0),
     "pitched 5 deg down, rolled 4 deg left side down, run as if level": SynthCamera(pitch_deg=5.0, roll_deg=-4.0),
+    "pitched 5 deg up, run as if level": SynthCamera(pitch_deg=-5.0),
 }
 TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0, NOT_TOLD: 0.0,
-                  "pitched 5 deg down, rolled 4 deg left side down, run as if level": 0.0}  # run options that
+                  "pitched 5 deg down, rolled 4 deg left side down, run as if level": 0.0,
+                  "pitched 5 deg up, run as if level": 0.0}  # run options that
 # override the camera's calib.txt
 
 

@@ -105,3 +105,16 @@ def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(p
     assert road.grid_px[:, 1].max() == level.grid_px[:, 1].max() and road.crop[0].stop == level.crop[0].stop
     # its still points are judged in the grid's near half (a camera pitched up has a shorter grid)
     assert road.still.first_row == pytest.approx(94.0 + (below + 0.55 * 188) / 2, abs=1e-9)
+    placed = RoadFlow(Camera(intrinsics), (188, 620), "dis-road")  # a level camera whose pitch the drive says
+    assert placed.place(pitch_deg) and placed.horizon_below_px == pytest.approx(below, abs=1e-9)
+    np.testing.assert_array_equal(placed.grid_px, road.grid_px)
+    assert (placed.crop, placed.crop_hw, placed.still.first_row) == (road.crop, road.crop_hw, road.still.first_row)
+
+
+def test_a_road_crop_placed_too_small_for_the_flow_is_not_placed():
+    """A camera said to look 25 degrees up would keep a crop of a few rows: the crop and grid stay as they were."""
+    road = RoadFlow(Camera(CameraIntrinsics(359.0, 359.0, 310.0, 94.0)), (188, 620), "dis-road")
+    grid, crop = road.grid_px.copy(), road.crop
+    assert not road.place(-25.0, min_side_px=32)
+    np.testing.assert_array_equal(road.grid_px, grid)
+    assert road.crop == crop and road.horizon_below_px == 0.0

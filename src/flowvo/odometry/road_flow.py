@@ -33,25 +33,36 @@ class RoadFlow:
     resolution), and the dense flow (``flow_method``) that moves the grid from one frame to another; grid points in
     cells that stand still while the road moves (a bonnet) are left out (:mod:`flowvo.odometry.still_regions`:
     judged in the grid's near half, where the road moves more than its median; ``scale``: working width over the
-    reference width)."""
+    reference width). The crop and grid start below the horizon of a camera pitched up (:meth:`place`)."""
 
     def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0) -> None:
-        self.camera, self.K, self.working_hw = camera, camera.intrinsics.K, working_hw
+        self.camera, self.K, self.working_hw, self.scale = camera, camera.intrinsics.K, working_hw, scale
         self.estimator = create_estimator(flow_method)
-        below_px = horizon_below_px(self.K, camera.pitch_deg)
-        self.crop = road_crop(working_hw, self.K, horizon_below_px=below_px)
-        self.crop_hw = (self.crop[0].stop - self.crop[0].start, self.crop[1].stop - self.crop[1].start)
-        self.grid_px = road_grid(working_hw, self.K, horizon_below_px=below_px)
+        self.place(camera.pitch_deg)
+
+    def place(self, pitch_deg: float, min_side_px: int = 0) -> bool:
+        """Place the crop and grid for a camera pitched ``pitch_deg`` down (degrees; its pitch taken from the drive
+        places them again), their still cells judged afresh; False, and nothing moved, where the crop's smaller side
+        would come out under ``min_side_px``."""
+        below_px = horizon_below_px(self.K, pitch_deg)
+        crop = road_crop(self.working_hw, self.K, horizon_below_px=below_px)
+        crop_hw = (crop[0].stop - crop[0].start, crop[1].stop - crop[1].start)
+        if min(crop_hw) < min_side_px:
+            return False
+        self.crop, self.crop_hw, self.horizon_below_px = crop, crop_hw, below_px
+        self.grid_px = road_grid(self.working_hw, self.K, horizon_below_px=below_px)
         self.grid_undistorted_px = self.undistort(self.grid_px)
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
-        self.still = StillRegions(working_hw, self.K[1, 2] + (below_px + working_hw[0] * sum(ROAD_ROWS)) / 2, scale,
-                                  cell_px=GRID_MARGIN_PX)  # a cell per grid point: a bonnet's edge cuts through
-        # cells; judged from the grid's middle row down (a camera pitched up: 21 far points were taken for still)
+        middle_row = self.K[1, 2] + (below_px + self.working_hw[0] * sum(ROAD_ROWS)) / 2
+        self.still = StillRegions(self.working_hw, middle_row, self.scale, cell_px=GRID_MARGIN_PX)  # a cell per grid
+        # point: a bonnet's edge cuts through cells; judged from the grid's middle row down (a camera pitched up: 21
+        # far points were taken for still)
         self._keep: np.ndarray | None = None  # the grid points outside the still cells (None: all)
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
         self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
+        return True
 
     def undistort(self, points_px: np.ndarray) -> np.ndarray:
         """Working-frame pixels (N, 2) to ideal pinhole pixels."""
