@@ -1,7 +1,7 @@
 import json
 
 from flowvo.cli import build_parser, main
-from flowvo.cli.run import _mounting_note, _unscaled_warning
+from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning
 
 
 def test_every_subcommand_has_help(capsys):
@@ -63,3 +63,10 @@ def test_the_mounting_note_names_what_was_taken_and_advises_only_the_pitch():
     rolled = _mounting_note(planes([3.0], [5.3]), 3.0)  # the pitch was given: only the roll was taken
     assert "rolled 5.3 deg (right side down)" in rolled and "--camera-pitch" not in rolled and "pitched" not in rolled
     assert "21 refused as tilted" in rolled
+
+
+def test_a_road_that_bends_away_from_its_plane_is_warned_of_and_kitti_s_is_not():
+    assert _bowl_warning({"far_road_off_plane_share": 0.2813}).startswith(
+        "warning: the road 10-20 camera heights ahead lies 28 % of the height below the plane")
+    assert _bowl_warning({"far_road_off_plane_share": -0.0353}) is None  # real KITTI 03
+    assert _bowl_warning({"far_road_off_plane_share": None}) is None and _bowl_warning({}) is None

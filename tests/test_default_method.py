@@ -183,6 +183,7 @@ def test_without_a_trusted_road_the_network_measures_after_a_second():
     assert step.summary()["road_planes"] == {"trusted": 1, "refused_as_tilted": 0,
                                              "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None,
                                              "candidates_pitch_spread_deg": None, "ground_cells_off_road": 0,
+                                             "far_road_off_plane_share": None,
                                              "pitches_taken_deg": [], "rolls_taken_deg": []}
     assert lengths[0] == pytest.approx(1.0, rel=1e-4) and lengths[-1] > 1.0  # the prior, then the network's 2 m pull
 

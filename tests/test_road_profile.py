@@ -7,7 +7,7 @@ import pytest
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_length import RoadLength
 from flowvo.odometry.road_profile import MIN_CELL_POINTS, MIN_CELL_STEPS, RoadProfile, cell_medians, ground_cells
-from flowvo.odometry.road_scale import fit_road_plane
+from flowvo.odometry.road_scale import RoadPlane, fit_road_plane
 from flowvo.odometry.two_view import EssentialMotion
 
 K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])
@@ -41,9 +41,11 @@ def test_the_pavement_is_left_out_after_its_cells_were_seen_in_enough_steps():
     assert level.distance == pytest.approx(HEIGHT_M, abs=1e-9)  # the road alone: exactly level
     np.testing.assert_allclose(level.normal, [0.0, 1.0, 0.0], atol=1e-9)
     assert abs(plane.distance - HEIGHT_M) > 4e-3  # with the pavement the plane rose and rolled
-    assert profile.record() == {"ground_cells_off_road": 10}  # one a side in each of the 5 depth bands seen
+    assert profile.record() == {"ground_cells_off_road": 10,  # one a side in each of the 5 depth bands seen
+                                "far_road_off_plane_share": pytest.approx(HEIGHT_M / plane.distance - 1.0, abs=1e-4)}
     profile.forget()
-    assert profile.keep(GROUND).all() and profile.record() == {"ground_cells_off_road": 0}
+    assert profile.keep(GROUND).all()
+    assert profile.record() == {"ground_cells_off_road": 0, "far_road_off_plane_share": None}
 
 
 def test_a_profile_that_would_leave_too_few_points_keeps_them_all():
@@ -77,3 +79,17 @@ def test_ground_cells_count_depth_and_side_in_camera_heights():
     assert cells[0] != cells[2]  # either side of the camera's axis
     assert cells[0] != cells[1]  # a band deeper
     assert ground_cells(points * 2.0, 2.0).tolist() == cells.tolist()  # in units of the height
+
+
+def test_road_points_that_bend_away_from_the_near_road_plane_are_measured_straight_ahead():
+    """Road points 10-20 heights ahead lying 30 % of the height below the plane through the nearer ones (the real
+    dash-cam's bowl, docs/dashcam.md): the far road's share reads 0.3; a flat road reads 0."""
+    bowl = GROUND.copy()
+    far = (bowl[:, 2] >= 10 * HEIGHT_M) & (bowl[:, 2] < 20 * HEIGHT_M)
+    bowl[far, 1] += 0.3 * HEIGHT_M
+    profile, flat = RoadProfile(), RoadProfile()
+    for _ in range(MIN_CELL_STEPS):
+        profile.observe(bowl, RoadPlane.level(HEIGHT_M))
+        flat.observe(GROUND, RoadPlane.level(HEIGHT_M))
+    assert profile.far_road_share() == pytest.approx(0.3)
+    assert flat.far_road_share() == pytest.approx(0.0)

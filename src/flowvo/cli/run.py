@@ -34,6 +34,8 @@ def command(args: argparse.Namespace) -> int:
     planes = summary.get("road_planes", {})
     if note := _mounting_note(planes, summary["camera"]["camera_pitch_deg"]):
         print(note)
+    if warning := _bowl_warning(planes):
+        print(warning)
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     print(drive_line(summary["drive"]))
@@ -85,6 +87,21 @@ def drive_line(drive: dict) -> str:
             f"{drive['mean_speed_mps']:.1f} m/s ({3.6 * drive['mean_speed_mps']:.0f} km/h), top "
             f"{drive['top_speed_mps']:.1f} m/s ({3.6 * drive['top_speed_mps']:.0f} km/h, over 1 s), heading change "
             f"{drive['heading_change_deg']:+.1f} deg (left +)")
+
+
+def _bowl_warning(planes: dict) -> str | None:
+    """A warning where the road straight ahead lies far off the plane through the nearer road (``run.json``'s
+    ``road_planes.far_road_off_plane_share``, :func:`flowvo.odometry.road_profile.RoadProfile.far_road_share`)."""
+    from flowvo.odometry.road_profile import FAR_ROAD_H, FAR_ROAD_WARNING_SHARE
+
+    far = planes.get("far_road_off_plane_share")
+    if far is None or abs(far) <= FAR_ROAD_WARNING_SHARE:
+        return None
+    side = "below" if far > 0 else "above"
+    return (f"warning: the road {FAR_ROAD_H[0]:g}-{FAR_ROAD_H[1]:g} camera heights ahead lies {100 * abs(far):.0f} % "
+            f"of the height {side} the plane through the nearer road (real KITTI: within 4 %): "
+            "the road is not a plane to the method, and its lengths are not to be trusted (a rolling shutter, a "
+            "wrong lens model: docs/dashcam.md)")
 
 
 def _mounting_note(planes: dict, given_pitch_deg: float) -> str | None:

@@ -33,8 +33,21 @@ PROFILE_STEPS = 100  # the steps a cell was seen in that its median spans
 MIN_CELL_STEPS = 20  # steps a cell must be seen in before it is judged
 MIN_CELL_POINTS = 5  # points of one step a cell needs for that step's median
 
+FAR_ROAD_H = (10.0, 20.0)  # the road straight ahead this far (camera heights) tells whether the road points lie on a
+# plane at all: real KITTI's within 1.4-2.4 % of the height of the plane through the near road, the real dash-cam's
+# 18-35 % below it (docs/dashcam.md)
+AHEAD_H = 1.0  # "straight ahead": cells within this far to a side (camera heights)
+FAR_ROAD_WARNING_SHARE = 0.10  # farther off the plane than this, the road is not a plane to the method (flowvo run
+# warns): real KITTI 01 / 03 / 06 / 07 read -0.000 / -0.035 / -0.001 / -0.016, the real dash-cam +0.28
+
 SIDE_EDGES_H = np.arange(-SIDE_REACH_H, SIDE_REACH_H + SIDE_CELL_H / 2, SIDE_CELL_H)
 CELLS = (len(DEPTH_EDGES_H) + 1) * (len(SIDE_EDGES_H) + 1)
+_depth_low = np.r_[0.0, DEPTH_EDGES_H].repeat(len(SIDE_EDGES_H) + 1)
+_depth_high = np.r_[DEPTH_EDGES_H, np.inf].repeat(len(SIDE_EDGES_H) + 1)
+_side_low = np.tile(np.r_[-np.inf, SIDE_EDGES_H], len(DEPTH_EDGES_H) + 1)
+_side_high = np.tile(np.r_[SIDE_EDGES_H, np.inf], len(DEPTH_EDGES_H) + 1)
+FAR_AHEAD_CELLS = (_depth_low >= FAR_ROAD_H[0]) & (_depth_high <= FAR_ROAD_H[1]) & (_side_low >= -AHEAD_H) & \
+    (_side_high <= AHEAD_H)
 
 
 def ground_cells(points: np.ndarray, height: float) -> np.ndarray:
@@ -67,6 +80,7 @@ class RoadProfile:
         self._medians = np.full((PROFILE_STEPS, CELLS), np.nan)  # each cell's median residual in its last steps seen
         self._seen = np.zeros(CELLS, np.int64)  # steps each cell was seen in
         self.off_road = np.zeros(CELLS, bool)
+        self.medians = np.full(CELLS, np.nan)  # each judged cell's median residual (share of the height; NaN: not)
 
     def keep(self, points: np.ndarray) -> np.ndarray:
         """Which of the candidate road points (N, 3) a plane fit takes: those outside the cells off the road, or all
@@ -85,19 +99,28 @@ class RoadProfile:
         self._medians[self._seen[cells] % PROFILE_STEPS, cells] = medians[cells]
         self._seen[cells] += 1
         judged = self._seen >= MIN_CELL_STEPS
-        self.off_road[:] = False
         if judged.any():  # each judged cell's median over its steps seen (the NaNs of unfilled rows sort last)
             ordered = np.sort(self._medians[:, judged], axis=0)
             count, columns = np.minimum(self._seen[judged], PROFILE_STEPS), np.arange(judged.sum())
-            medians = (ordered[(count - 1) // 2, columns] + ordered[count // 2, columns]) / 2
-            self.off_road[judged] = np.abs(medians) > OFF_ROAD_SHARE
+            self.medians[judged] = (ordered[(count - 1) // 2, columns] + ordered[count // 2, columns]) / 2
+        self.off_road[:] = np.abs(np.nan_to_num(self.medians)) > OFF_ROAD_SHARE
 
     def forget(self) -> None:
         """Start afresh: nothing is off the road until cells are judged again."""
         self._medians[:] = np.nan
         self._seen[:] = 0
         self.off_road[:] = False
+        self.medians[:] = np.nan
+
+    def far_road_share(self) -> float | None:
+        """How far the road straight ahead at ``FAR_ROAD_H`` lies off the trusted planes (the median of its judged
+        cells, share of the height, positive below), or None before any is judged."""
+        far = self.medians[FAR_AHEAD_CELLS]
+        far = far[~np.isnan(far)]
+        return float(np.median(far)) if len(far) else None
 
     def record(self) -> dict:
-        """What ``run.json`` records: the cells left out at the end."""
-        return {"ground_cells_off_road": int(self.off_road.sum())}
+        """What ``run.json`` records: the cells left out at the end, and :meth:`far_road_share`."""
+        far = self.far_road_share()
+        return {"ground_cells_off_road": int(self.off_road.sum()),
+                "far_road_off_plane_share": None if far is None else round(far, 4)}
