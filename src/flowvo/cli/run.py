@@ -111,10 +111,10 @@ def _mounting_note(planes: dict, given_pitch_deg: float) -> str | None:
     if not planes.get("pitches_taken_deg"):
         return None
     pitch_deg, roll_deg = planes["pitches_taken_deg"][-1], planes["rolls_taken_deg"][-1]
-    taken = ([f"pitched {pitch_deg:.1f} deg down"] if round(pitch_deg - given_pitch_deg, 1) else []) + \
+    pitch_changed = bool(round(pitch_deg - given_pitch_deg, 1))
+    taken = ([f"pitched {pitch_deg:.1f} deg down"] if pitch_changed else []) + \
         ([f"rolled {roll_deg:.1f} deg (right side down)"] if round(roll_deg, 1) else [])
-    advice = f": --camera-pitch {pitch_deg:.1f} measures with its pitch from the first frame" if \
-        round(pitch_deg - given_pitch_deg, 1) else ""
+    advice = f": --camera-pitch {pitch_deg:.1f} measures with its pitch from the first frame" if pitch_changed else ""
     return (f"note: the camera's mounting was taken from the drive: {', '.join(taken) or 'as given'} (its road planes "
             f"leaned alike; {planes['refused_as_tilted']} refused as tilted){advice} (docs/camera.md)")
 

@@ -170,14 +170,6 @@ def road_points(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
     return points if levelling is None else points @ levelling.T
 
 
-def road_plane_candidate(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
-                         min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> RoadPlane | None:
-    """The plane fitted to road correspondences (distance in units of the step), before the gates of
-    :func:`is_trusted_road`, in the level frame (:func:`road_points`); None when no plane is found or no points."""
-    points = road_points(points_prev, points_next, K, motion, min_parallax_px, levelling)
-    return None if points is None else fit_road_plane(points)
-
-
 def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
                     min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION) -> bool:
     """Whether a candidate plane (level frame) is the road the camera stands on: below the camera, tilted at
@@ -188,7 +180,7 @@ def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
 
 
 def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane:
-    """A plane of the level frame in the camera's frame (``levelling`` as in :func:`road_plane_candidate`)."""
+    """A plane of the level frame in the camera's frame (``levelling`` as in :func:`road_points`)."""
     if levelling is None:
         return plane
     return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)

@@ -74,7 +74,7 @@ class StillRegions:
         changed = bool((still != self.still).any())
         self.still = still
         if changed:
-            self.kept_out = _band_below(still, self.shape) if self.band else still
+            self._keep_out_still()
         return changed
 
     def widen(self) -> None:
@@ -87,6 +87,10 @@ class StillRegions:
         wide[:, 1:] |= grid[:, :-1]
         wide[:, :-1] |= grid[:, 1:]
         self.still = wide.ravel()
+        self._keep_out_still()
+
+    def _keep_out_still(self) -> None:
+        """The cells :meth:`keep` leaves out, from the still ones (with ``band``: :func:`_band_below`)."""
         self.kept_out = _band_below(self.still, self.shape) if self.band else self.still
 
     def keep(self, points_px: np.ndarray) -> np.ndarray:
