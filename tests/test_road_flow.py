@@ -6,7 +6,14 @@ import cv2
 import numpy as np
 import pytest
 
-from flowvo.camera import Camera, CameraIntrinsics, LensDistortion, distort_points, undistort_points
+from flowvo.camera import (
+    Camera,
+    CameraIntrinsics,
+    LensDistortion,
+    distort_points,
+    mounting_rotation,
+    undistort_points,
+)
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_scale import GRID_MARGIN_PX, RoadPlane, horizon_below_px, road_homography
@@ -109,6 +116,26 @@ def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(p
     assert placed.place(pitch_deg) and placed.horizon_below_px == pytest.approx(below, abs=1e-9)
     np.testing.assert_array_equal(placed.grid_px, road.grid_px)
     assert (placed.crop, placed.crop_hw, placed.still.first_row) == (road.crop, road.crop_hw, road.still.first_row)
+
+
+@pytest.mark.parametrize(("pitch_deg", "roll_deg"), [(0.0, 6.0), (0.0, -6.0), (-2.0, 4.0), (3.0, -7.0)])
+def test_a_rolled_camera_has_its_road_crop_start_below_the_lowest_point_of_its_sloping_horizon(pitch_deg, roll_deg):
+    """A rolled camera's horizon slopes: at the crop's side that it is lowest on, the pixel ``horizon_below_px`` under
+    the principal point looks parallel to the road (its ray is at right angles to the road's normal), and the other
+    side's horizon lies higher; rolled 6 degrees and level, that is the crop's half width times tan(6 deg)."""
+    half_width_px = 0.25 * 620
+    below = horizon_below_px(K, pitch_deg, roll_deg, half_width_px)
+    normal = mounting_rotation(pitch_deg, roll_deg).T @ np.array([0.0, 1.0, 0.0])
+    sides = [np.linalg.inv(K) @ np.array([K[0, 2] + side * half_width_px, K[1, 2] + below, 1.0]) for side in (-1, 1)]
+    low, high = sorted(sides, key=lambda ray: abs(ray @ normal))
+    assert below > 0 and low @ normal == pytest.approx(0.0, abs=1e-12) and high @ normal > 0.01  # the other side's
+    # pixel looks at the road: its horizon is higher
+    if pitch_deg == 0.0:
+        assert below == pytest.approx(half_width_px * np.tan(np.radians(abs(roll_deg))), rel=1e-12)
+    road = RoadFlow(Camera(INTRINSICS), HW, "dis-road")
+    assert road.place(pitch_deg, roll_deg) and road.horizon_below_px == pytest.approx(below, abs=1e-9)
+    assert road.crop[0].start == int(K[1, 2] + below + 0.05 * HW[0])
+    assert road.grid_px[:, 1].min() == int(K[1, 2] + below + 0.10 * HW[0])
 
 
 def test_a_road_crop_placed_too_small_for_the_flow_is_not_placed():

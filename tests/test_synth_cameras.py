@@ -220,12 +220,12 @@ def test_default_method_on_a_camera_pitched_8_degrees_down_is_within_1_3x_of_kit
 @pytest.mark.slow
 def test_default_method_on_a_camera_rolled_6_degrees_takes_its_roll_from_the_drive(kitti_camera_metrics, tmp_path):
     """No calib.txt tells a roll: every road plane leans 6 degrees sideways and is refused until the drive's roll is
-    taken from its planes (before roll was taken: 1 of 198 planes trusted, t_err 2.32 % against KITTI's camera's
-    1.04 %, the network measuring; with it 1.47 %: a rolled camera's step lengths scatter more,
-    docs/synthetic_cameras.md)."""
+    taken from its planes (before roll was taken: 1 of 198 planes trusted, t_err 2.32 %, the network measuring), and
+    the road crop then starts below its sloping horizon (before: 2.23 % against KITTI's camera's 1.36 %, the crop's
+    top corner on one side above the horizon; with it 0.93 %, docs/synthetic_cameras.md)."""
     t_err = _metrics(tmp_path, SynthCamera(roll_deg=6.0))["t_err_percent"]
     planes = json.loads((tmp_path / "run" / "run.json").read_text())["road_planes"]
     assert planes["rolls_taken_deg"] == [pytest.approx(6.0, abs=1.0)]
     assert planes["pitches_taken_deg"] == [pytest.approx(0.0, abs=0.5)] and planes["trusted"] > 150
     kitti_t_err = kitti_camera_metrics["t_err_percent"]
-    assert t_err <= 1.5 * kitti_t_err, f"t_err {t_err:.2f} % against {kitti_t_err:.2f} % (KITTI's)"
+    assert t_err <= 1.3 * kitti_t_err, f"t_err {t_err:.2f} % against {kitti_t_err:.2f} % (KITTI's)"

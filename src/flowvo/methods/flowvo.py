@@ -37,7 +37,6 @@ from flowvo.odometry.road_length import RoadLength
 from flowvo.odometry.road_scale import (
     NetworkFallbackPolicy,
     RoadPlane,
-    horizon_below_px,
     road_flow_within_reach,
     road_room,
 )
@@ -238,10 +237,11 @@ class FlowGeometryStep(WorkingFrames):
         taken = len(self.road_length.pitches_taken_deg)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
         if len(self.road_length.pitches_taken_deg) > taken:  # the drive's mounting: the car's axes turn with it, and
-            # a camera found to look up has its road crop and grid moved below its horizon
+            # a camera found to look up, or rolled, has its road crop and grid moved below its horizon
             self.checks.turn_car_axes(self.road_length.levelling.T)
-            if horizon_below_px(self.K, self.road_length.pitch_deg) != self.road.horizon_below_px:
-                self.road.place(self.road_length.pitch_deg, MIN_FLOW_SIDE_PX)
+            mounting = self.road_length.pitch_deg, self.road_length.roll_deg
+            if self.road.horizon_below_px_for(*mounting) != self.road.horizon_below_px:
+                self.road.place(*mounting, min_side_px=MIN_FLOW_SIDE_PX)
         road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
         self.last_view = (time_s, flow, fit, plane)
         self.road_key.end(span, time_s, plane, road_moved_px, (key_fit, fit), road_m, self.speed.last_speed_mps)

@@ -7,12 +7,12 @@ flow was computed at; lengths in metres, or in units of the step where said so.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from flowvo.camera import mounting_rotation
 from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px, triangulate
 
 if TYPE_CHECKING:
@@ -20,6 +20,7 @@ if TYPE_CHECKING:
 
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
+ROAD_CROP_HALF_WIDTH = 0.25  # the road crop's (:func:`road_crop`), wider than the grid: road points move outwards
 ROAD_ROWS_NEEDED = 0.35  # frame heights below the principal point the grid must find inside the frame; the
 # nearer rows are read where the frame holds them
 GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
@@ -41,10 +42,16 @@ def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
             f"[{cx_range[0]:.0f}, {cx_range[1]:.0f}] and cy <= {max_cy:.0f} px")
 
 
-def horizon_below_px(K: np.ndarray, pitch_deg: float) -> float:
-    """How far below the principal point (pixels, ideal pinhole) the horizon lies for a camera pitched ``pitch_deg``
-    (down positive): 0 for a level camera or one pitched down, whose horizon is at or above it."""
-    return max(0.0, -float(K[1, 1]) * math.tan(math.radians(pitch_deg)))
+def horizon_below_px(K: np.ndarray, pitch_deg: float, roll_deg: float = 0.0, half_width_px: float = 0.0) -> float:
+    """How far below the principal point (pixels, ideal pinhole) the horizon's lowest point within ``half_width_px``
+    columns of it lies for a camera pitched ``pitch_deg`` (down positive) and rolled ``roll_deg`` (degrees,
+    :func:`flowvo.camera.mounting_rotation`): 0 where it is at or above it (a level camera, one pitched down).
+
+    The horizon is where viewing rays run parallel to the road: ``n . (x, y, 1) = 0`` for the road's normal ``n`` in
+    the camera frame (normalised coordinates); a rolled camera's horizon slopes, and it is lowest at one side."""
+    normal = mounting_rotation(pitch_deg, roll_deg).T @ np.array([0.0, 1.0, 0.0])
+    lowest = (abs(normal[0]) * half_width_px / float(K[0, 0]) - normal[2]) / normal[1]
+    return max(0.0, float(K[1, 1]) * lowest)
 
 
 def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = ROAD_ROWS,
@@ -65,7 +72,7 @@ def road_grid(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float
 
 
 def road_crop(image_hw: tuple[int, int], K: np.ndarray, rows: tuple[float, float] = (0.05, 0.50),
-              half_width: float = 0.25, horizon_below_px: float = 0.0) -> tuple[slice, slice]:
+              half_width: float = ROAD_CROP_HALF_WIDTH, horizon_below_px: float = 0.0) -> tuple[slice, slice]:
     """The part of the frame whose dense flow the road scale needs: the :func:`road_grid` band with margins
     (road points move down and outwards between frames). Rows ``cy + rows * H`` (the top ones
     ``horizon_below_px`` lower), columns within ``half_width * W`` of the principal point."""
