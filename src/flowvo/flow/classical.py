@@ -19,8 +19,8 @@ import numpy as np
 # 5.0 % against 4.7 %). Without any refinement, steps at walking pace came out 16 % long (clip 07's start).
 # Its patches descend 12 gradient steps, not the preset's 25: the current frame is warped onto the predicted road,
 # so each patch starts near its answer (0.6 ms less a step; real clips 03 / 03 at 5 Hz / 01 / 06 / 07 0.91 / 1.01 /
-# 1.06 / 0.80 / 1.29 -> 0.95 / 0.91 / 0.92 / 0.79 / 1.19 %, synthetic replays 0.895 -> 0.880 %; 8 steps as good on
-# KITTI but took a pitch on the real dash-cam and read it 14 % slower; 4 steps: clip 01 2.4 %).
+# 1.06 / 0.80 / 1.29 -> 0.95 / 0.91 / 0.92 / 0.79 / 1.19 %, synthetic replays 0.895 -> 0.880 % (docs/results.md);
+# 8 steps as good on KITTI but took a pitch on the real dash-cam and read it 14 % slower; 4 steps: clip 01 2.4 %).
 DIS_PRESETS: dict[str, tuple[int, dict[str, int]]] = {
     "dis-ultrafast": (cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST, {}),
     "dis-fast": (cv2.DISOPTICAL_FLOW_PRESET_FAST, {}),
