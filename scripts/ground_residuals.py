@@ -13,7 +13,7 @@ import numpy as np
 
 import flowvo.odometry.road_length as road_length
 from flowvo.cli import main
-from flowvo.odometry.road_profile import RoadProfile
+from flowvo.odometry.road_profile import RoadProfile, road_residuals
 from flowvo.odometry.road_scale import RoadPlane
 
 DEPTH_BANDS_H = ((4, 7), (7, 10), (10, 20))
@@ -29,8 +29,8 @@ class RecordingProfile(RoadProfile):
     def observe(self, points: np.ndarray, plane: RoadPlane) -> None:
         super().observe(points, plane)
         if plane.distance > 0 and len(points):
-            residual = points @ plane.normal / plane.distance - 1.0
-            self.seen.append(np.c_[points[:, 2] / plane.distance, points[:, 0] / plane.distance, residual])
+            self.seen.append(np.c_[points[:, 2] / plane.distance, points[:, 0] / plane.distance,
+                                   road_residuals(points, plane)])
 
 
 def main_table(argv: list[str]) -> int:

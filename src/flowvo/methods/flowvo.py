@@ -239,9 +239,7 @@ class FlowGeometryStep(WorkingFrames):
         if len(self.road_length.pitches_taken_deg) > taken:  # the drive's mounting: the car's axes turn with it, and
             # a camera found to look up, or rolled, has its road crop and grid moved below its horizon
             self.checks.turn_car_axes(self.road_length.levelling.T)
-            mounting = self.road_length.pitch_deg, self.road_length.roll_deg
-            if self.road.horizon_below_px_for(*mounting) != self.road.horizon_below_px:
-                self.road.place(*mounting, min_side_px=MIN_FLOW_SIDE_PX)
+            self.road.place(self.road_length.pitch_deg, self.road_length.roll_deg, MIN_FLOW_SIDE_PX)
         road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
         self.last_view = (time_s, flow, fit, plane)
         self.road_key.end(span, time_s, plane, road_moved_px, (key_fit, fit), road_m, self.speed.last_speed_mps)

@@ -39,13 +39,17 @@ class RoadFlow:
     def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0) -> None:
         self.camera, self.K, self.working_hw, self.scale = camera, camera.intrinsics.K, working_hw, scale
         self.estimator = create_estimator(flow_method)
+        self.horizon_below_px: float | None = None  # how far below the principal point the crop and grid start
         self.place(camera.pitch_deg)
 
     def place(self, pitch_deg: float, roll_deg: float = 0.0, min_side_px: int = 0) -> bool:
         """Place the crop and grid for a camera pitched ``pitch_deg`` down and rolled ``roll_deg`` (degrees; its
-        mounting taken from the drive places them again), their still cells judged afresh; False, and nothing moved,
-        where the crop's smaller side would come out under ``min_side_px``."""
-        below_px = self.horizon_below_px_for(pitch_deg, roll_deg)
+        mounting taken from the drive places them again) below the horizon's lowest point across the crop
+        (:func:`flowvo.odometry.road_scale.horizon_below_px`), their still cells judged afresh where they move; False,
+        and nothing moved, where the crop's smaller side would come out under ``min_side_px``."""
+        below_px = horizon_below_px(self.K, pitch_deg, roll_deg, ROAD_CROP_HALF_WIDTH * self.working_hw[1])
+        if below_px == self.horizon_below_px:
+            return True
         crop = road_crop(self.working_hw, self.K, horizon_below_px=below_px)
         crop_hw = (crop[0].stop - crop[0].start, crop[1].stop - crop[1].start)
         if min(crop_hw) < min_side_px:
@@ -64,11 +68,6 @@ class RoadFlow:
         rows, columns = np.mgrid[self.crop[0], self.crop[1]]
         self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
         return True
-
-    def horizon_below_px_for(self, pitch_deg: float, roll_deg: float = 0.0) -> float:
-        """How far below the principal point the crop and grid start for a camera so mounted (pixels): the horizon's
-        lowest point across the crop (:func:`flowvo.odometry.road_scale.horizon_below_px`)."""
-        return horizon_below_px(self.K, pitch_deg, roll_deg, ROAD_CROP_HALF_WIDTH * self.working_hw[1])
 
     def undistort(self, points_px: np.ndarray) -> np.ndarray:
         """Working-frame pixels (N, 2) to ideal pinhole pixels."""

@@ -57,6 +57,11 @@ def ground_cells(points: np.ndarray, height: float) -> np.ndarray:
     return depth * (len(SIDE_EDGES_H) + 1) + side
 
 
+def road_residuals(points: np.ndarray, plane: RoadPlane) -> np.ndarray:
+    """How far each point (N, 3) lies below ``plane`` (N,), a share of the plane's distance (negative: above it)."""
+    return points @ plane.normal / plane.distance - 1.0
+
+
 def cell_medians(residuals: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """The median of ``residuals`` (N,) in each of the ``CELLS`` cells (``cells`` (N,): each one's index), NaN where
     a cell holds fewer than ``MIN_CELL_POINTS`` (sorted once: no loop over the cells)."""
@@ -94,7 +99,7 @@ class RoadProfile:
         """Learn from a trusted ``plane`` (the fit's frame) and every candidate point (N, 3) it was fitted among."""
         if plane.distance <= 0 or not len(points):
             return
-        medians = cell_medians(points @ plane.normal / plane.distance - 1.0, ground_cells(points, plane.distance))
+        medians = cell_medians(road_residuals(points, plane), ground_cells(points, plane.distance))
         cells = np.flatnonzero(~np.isnan(medians))
         self._medians[self._seen[cells] % PROFILE_STEPS, cells] = medians[cells]
         self._seen[cells] += 1
