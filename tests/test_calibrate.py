@@ -147,12 +147,14 @@ def test_charuco_board_is_recovered(charuco_views):
 
 @pytest.mark.parametrize("scale", [1e7, 1e-5])
 def test_a_charuco_board_in_any_unit_is_found_and_gives_the_same_camera(charuco_views, scale):
-    """OpenCV's ChArUco detector has tolerances in the board's unit: a board in kilometres was never found."""
+    """OpenCV's ChArUco detector has tolerances in the board's unit: a board in kilometres was never found. The same
+    camera within 1e-6 of each value (2e-4 px): the solver's sums run in OpenCV's thread pool, and one clean-clone CI
+    run in five read cy 7e-9 apart in kilometres."""
     reference = calibrate(labelled(charuco_views), charuco_board())
     result = calibrate(labelled(charuco_views), charuco_board(scale))
     assert result.views_found == reference.views_found
-    assert result.intrinsics.fx == pytest.approx(reference.intrinsics.fx, rel=1e-9)
-    assert result.intrinsics.cy == pytest.approx(reference.intrinsics.cy, rel=1e-9)
+    assert result.intrinsics.fx == pytest.approx(reference.intrinsics.fx, rel=1e-6)
+    assert result.intrinsics.cy == pytest.approx(reference.intrinsics.cy, rel=1e-6)
 
 
 def test_cli_writes_the_file_run_reads_back_identically(board_folder, checkerboard_result, tmp_path, capsys,
