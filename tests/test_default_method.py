@@ -80,6 +80,22 @@ def test_a_still_road_and_scene_is_a_standstill():
     np.testing.assert_array_equal(step.motion((0.0, 0.1), None, step_flow(step, 0.0, 0.0, False)), np.eye(4))
 
 
+@pytest.mark.parametrize(("dt_s", "still"), [(0.1, True), (1 / 30, False)])
+def test_under_half_a_pixel_in_a_tenth_of_a_second_stands_still_and_faster_frames_creep(dt_s, still):
+    """A 5 cm step turning 0.01 degrees moves the road 0.38 px and the scene 0.2 px (medians). In 0.1 s that is a
+    standstill; at 30 frames/s it is a car at 1.5 m/s (under half a pixel a 10 Hz step, over it in 0.1 s):
+    not stopped, taken straight ahead and unturned (its tracks moved too little for an essential fit)."""
+    step = FlowGeometryStep(CAMERA, HW)
+    motion = step.motion((0.0, dt_s), None, step_flow(step, 0.05, yaw_rad=0.0002))
+    fit = step.last_view[2]
+    if still:
+        assert fit is None
+        np.testing.assert_array_equal(motion, np.eye(4))
+    else:
+        np.testing.assert_array_equal(fit.R, np.eye(3))
+        np.testing.assert_array_equal(fit.t_dir, [0.0, 0.0, -1.0])  # the camera's forward axis, level
+
+
 def test_a_still_view_at_speed_keeps_the_last_motion_until_the_car_could_have_braked():
     """12 m/s on a road, then images that stand still (past a crest only distant scenery is in view): the
     car keeps its motion, and stands still once 1 g of braking could have stopped it (a camera at KITTI's height:

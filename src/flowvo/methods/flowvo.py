@@ -4,10 +4,11 @@ is not; no ground truth enters it.
 
 Per frame: textured points tracked over the whole frame (pyramidal Lucas-Kanade) and the dense DIS flow of the
 road ahead (:mod:`~flowvo.odometry.road_flow`, from the road key frame: :mod:`~flowvo.odometry.road_key`). Per
-step: the standstill test (road and scene under half a pixel, and braking at 1 g could have stopped the car); the
-essential fit and its checks (:mod:`~flowvo.odometry.motion_checks`); the road plane and the metres it gives
-from the camera height (:mod:`~flowvo.odometry.road_length`); the packaged network's distance where no trusted
-road was seen for a while (``flowvo``; ``flowvo-geometry`` has none); the smooth-speed prior
+step: the standstill test (road and scene under half a pixel in 0.1 s, and braking at 1 g could have stopped the
+car; a faster frame's step under half a pixel is a creeping car, taken straight ahead); the essential fit and
+its checks (:mod:`~flowvo.odometry.motion_checks`); the road plane and the metres it gives from the camera
+height (:mod:`~flowvo.odometry.road_length`); the packaged network's distance where no trusted road was seen
+for a while (``flowvo``; ``flowvo-geometry`` has none); the smooth-speed prior
 (:mod:`~flowvo.odometry.speed_prior`). Lens distortion is removed from the tracked and road points, not from whole
 frames.
 
@@ -57,7 +58,11 @@ from flowvo.odometry.window_stage import WindowStage, motion_in_metres
 DEFAULT_ROAD_FLOW_METHOD = "dis-road"  # DIS down to the working resolution (the presets' road flow, one pyramid
 # level short, made every step 3-6 % short on real KITTI), lighter where that cost nothing (flow.classical)
 DEFAULT_WORKING_WIDTH = 620  # KITTI at half width: the road's flow is fine enough, the step runs at 100 frames/s
-STILL_FLOW_PX = 0.5  # at the reference width: below this median motion of road and scene, the car stands still
+STILL_FLOW_PX = 0.5  # at the reference width: below this median motion of road and scene over STILL_SPAN_S (or
+# a longer step), the car stands still
+STILL_SPAN_S = 0.1  # KITTI's frame interval, at which STILL_FLOW_PX was set: at 30 frames/s a step of 0.5 px is
+# 1.8 m/s, and a drive's stops and starts were cut as standstills (generated drive, seed 4: 1.9 m of 189 m lost,
+# t_err 1.25 %)
 TRACK_WINDOW_PX = 11  # Lucas-Kanade window: half the cost of 15 px windows, rotations and directions alike on
 # the real clips (t_err with the true step lengths over widths 600/620/640: 1.25 / 0.71 / 0.61 % against
 # 1.21 / 0.69 / 0.59 %)
@@ -218,21 +223,25 @@ class FlowGeometryStep(WorkingFrames):
         road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
         road_moved_px = float(np.median(road_motion_px)) if len(road_motion_px) else 0.0
         road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, span.predicted, span.steps)
-        still = self._looks_still(flow, road_moved_px / span.steps)
+        road_step_px = road_moved_px / span.steps
+        still = self._moved_under(flow, road_step_px, self.still_flow_px * min(1.0, dt_s / STILL_SPAN_S))
         if still and self.speed.could_stand_at(time_s):
             return self._stand_still(time_s)
         # a car too fast to have stopped, with only distant scenery in view, is degenerate too
         fit = None if still else flow.motion_fit
         if fit is None:
             return motion_in_metres(self._keep_last_motion(dt_s), self.metres_per_unit)
-        road_key_fit = None if span.from_previous else self.fit_motion(flow.key_prev, flow.key_next)
-        rotation_key_fit = None if flow.rotation_key_prev is None else road_key_fit \
-            if flow.rotation_key_prev is flow.key_prev else self.fit_motion(flow.rotation_key_prev,
-                                                                             flow.rotation_key_next)
-        fit = self.checks.checked(fit, rotation_key_fit, (flow.motion_prev, flow.motion_next), dt_s,
-                                  self.speed.last_speed_mps)
+        if self._moved_under(flow, road_step_px, self.still_flow_px):
+            fit = key_fit = self._creeping(fit)
+        else:
+            road_key_fit = None if span.from_previous else self.fit_motion(flow.key_prev, flow.key_next)
+            rotation_key_fit = None if flow.rotation_key_prev is None else road_key_fit \
+                if flow.rotation_key_prev is flow.key_prev else self.fit_motion(flow.rotation_key_prev,
+                                                                                 flow.rotation_key_next)
+            fit = self.checks.checked(fit, rotation_key_fit, (flow.motion_prev, flow.motion_next), dt_s,
+                                      self.speed.last_speed_mps)
+            key_fit = fit if span.from_previous else road_key_fit
         self.checks.advance((times_s[0], previous), time_s, fit.R)
-        key_fit = fit if span.from_previous else road_key_fit
         self.road_length.advance(fit.R, dt_s)
         taken = len(self.road_length.pitches_taken_deg)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
@@ -264,11 +273,20 @@ class FlowGeometryStep(WorkingFrames):
             self._record_step(times_s, span, fit, step_m, road_m, network_m, last_step, flow)
         return motion_in_metres(self.last_motion, self.metres_per_unit)
 
-    def _looks_still(self, flow: GeometryFlow, road_step_px: float) -> bool:
-        """Whether the road (``road_step_px``: its median motion per step, working pixels) and the tracked
-        points both moved less than ``STILL_FLOW_PX``."""
+    @staticmethod
+    def _moved_under(flow: GeometryFlow, road_step_px: float, limit_px: float) -> bool:
+        """Whether the road (``road_step_px``: its median motion per step) and the tracked points (median) both
+        moved less than ``limit_px`` in the step (working pixels)."""
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        return road_step_px < self.still_flow_px and (not len(moved_px) or np.median(moved_px) < self.still_flow_px)
+        return road_step_px < limit_px and (not len(moved_px) or np.median(moved_px) < limit_px)
+
+    def _creeping(self, fit: EssentialMotion) -> EssentialMotion:
+        """A step shorter than a standstill's at 10 Hz (road and scene under ``STILL_FLOW_PX``) but too long for
+        one at this frame rate: a car creeping (30 frames/s: under 1.8 m/s). Its tracks moved too little for an
+        essential fit (on a generated drive at 30 frames/s such fits turned up to 0.12 degrees too far, and the yaw
+        check then held that rate for four steps): the car moves along its forward axis, turning less than its
+        tracks' half a pixel shows."""
+        return EssentialMotion(np.eye(3), -self.checks.travel.forward, fit.inliers)
 
     def _stand_still(self, time_s: float) -> np.ndarray:
         """The road and the scene stand still (distant points alone can mislead): the identity, the speed
