@@ -223,15 +223,15 @@ class FlowGeometryStep(WorkingFrames):
         road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
         road_moved_px = float(np.median(road_motion_px)) if len(road_motion_px) else 0.0
         road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, span.predicted, span.steps)
-        road_step_px = road_moved_px / span.steps
-        still = self._moved_under(flow, road_step_px, self.still_flow_px * min(1.0, dt_s / STILL_SPAN_S))
+        step_px = self._step_motion_px(flow, road_moved_px / span.steps)
+        still = step_px < self.still_flow_px * min(1.0, dt_s / STILL_SPAN_S)
         if still and self.speed.could_stand_at(time_s):
             return self._stand_still(time_s)
         # a car too fast to have stopped, with only distant scenery in view, is degenerate too
         fit = None if still else flow.motion_fit
         if fit is None:
             return motion_in_metres(self._keep_last_motion(dt_s), self.metres_per_unit)
-        if self._moved_under(flow, road_step_px, self.still_flow_px):
+        if step_px < self.still_flow_px:
             fit = key_fit = self._creeping(fit)
         else:
             road_key_fit = None if span.from_previous else self.fit_motion(flow.key_prev, flow.key_next)
@@ -274,11 +274,11 @@ class FlowGeometryStep(WorkingFrames):
         return motion_in_metres(self.last_motion, self.metres_per_unit)
 
     @staticmethod
-    def _moved_under(flow: GeometryFlow, road_step_px: float, limit_px: float) -> bool:
-        """Whether the road (``road_step_px``: its median motion per step) and the tracked points (median) both
-        moved less than ``limit_px`` in the step (working pixels)."""
+    def _step_motion_px(flow: GeometryFlow, road_step_px: float) -> float:
+        """How far the step moved the view (working pixels): the larger of the road's median motion per step
+        (``road_step_px``) and the tracked points' median motion (the road's alone without tracks)."""
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        return road_step_px < limit_px and (not len(moved_px) or np.median(moved_px) < limit_px)
+        return max(road_step_px, float(np.median(moved_px))) if len(moved_px) else road_step_px
 
     def _creeping(self, fit: EssentialMotion) -> EssentialMotion:
         """A step shorter than a standstill's at 10 Hz (road and scene under ``STILL_FLOW_PX``) but too long for
