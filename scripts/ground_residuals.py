@@ -13,8 +13,8 @@ import numpy as np
 
 import flowvo.odometry.road_length as road_length
 from flowvo.cli import main
+from flowvo.odometry.road_plane import RoadPlane
 from flowvo.odometry.road_profile import RoadProfile, road_residuals
-from flowvo.odometry.road_scale import RoadPlane
 
 DEPTH_BANDS_H = ((4, 7), (7, 10), (10, 20))
 SIDE_EDGES_H = np.arange(-4.0, 4.01, 0.5)

@@ -26,7 +26,8 @@ from flowvo.drive.options import RunOptions, open_drive
 from flowvo.geometry import so3_exp
 from flowvo.methods.base import WorkingFrames
 from flowvo.methods.flowvo import TRACK_WINDOW_PX, FlowGeometryStep
-from flowvo.odometry.road_scale import RoadPlane, road_homography, trusted_road_plane
+from flowvo.odometry.road_plane import RoadPlane
+from flowvo.odometry.road_scale import road_homography, trusted_road_plane
 from flowvo.odometry.two_view import EssentialMotion, lucas_kanade, textured_points
 
 CAMERA_HEIGHT_M = 1.65

@@ -11,11 +11,10 @@ import pytest
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import so3_exp
 from flowvo.methods.flowvo import FlowGeometryStep, GeometryFlow, GeometryFrame
+from flowvo.odometry.road_normal import FIT_REFERENCE_DEPTH, RoadNormal
+from flowvo.odometry.road_plane import RoadPlane
 from flowvo.odometry.road_scale import (
-    FIT_REFERENCE_DEPTH,
     NetworkFallbackPolicy,
-    RoadNormal,
-    RoadPlane,
     onward_road_homography,
     road_flow_within_reach,
     road_homography,

@@ -16,7 +16,8 @@ from flowvo.camera import (
 )
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_flow import RoadFlow
-from flowvo.odometry.road_scale import GRID_MARGIN_PX, RoadPlane, horizon_below_px, road_homography
+from flowvo.odometry.road_plane import RoadPlane
+from flowvo.odometry.road_scale import GRID_MARGIN_PX, horizon_below_px, road_homography
 from flowvo.odometry.two_view import EssentialMotion
 
 HW = (188, 620)

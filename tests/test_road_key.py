@@ -7,7 +7,8 @@ import pytest
 
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_key import MAX_KEY_PREDICTION_SPEED_MPS, MAX_ROAD_KEY_S, RoadKeyFrame, RoadSpan
-from flowvo.odometry.road_scale import RoadPlane, road_homography
+from flowvo.odometry.road_plane import RoadPlane
+from flowvo.odometry.road_scale import road_homography
 from flowvo.odometry.two_view import EssentialMotion
 
 K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])

@@ -105,7 +105,7 @@ def test_a_camera_pitched_8_degrees_down_taken_for_level_is_levelled_by_its_driv
     """Every road plane of a camera pitched 8 degrees down but said level leans 8 degrees and is refused; after
     MIN_TILTED_FOR_HINT of them their median pitch is taken, the next plane is trusted with the exact metres, and
     the planes after it (leaning 0 degrees now) take nothing more: the pitch is a fixed point."""
-    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT
 
     road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ pitch_rotation(8.0)
     road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
@@ -127,7 +127,7 @@ def test_a_rolled_camera_taken_for_level_is_levelled_by_its_drive_once(pitch_deg
     """A camera rolled (and pitched) but said level: its planes are refused until their pitch and roll are taken,
     exactly (the taken mounting read off the road's normal, not added angle by angle), then every plane is trusted
     with the exact metres and nothing more is taken."""
-    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT
 
     road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ mounting_rotation(pitch_deg, roll_deg)
     road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
@@ -148,7 +148,7 @@ def test_a_mounting_taken_from_the_drive_is_taken_back_by_planes_the_gate_trusts
     drive's estimate: the road after it, rolled 3 degrees, leans 3 degrees back, inside the 4-degree gate, its
     planes trusted, and after 20 of them the roll taken is 3 (a camera given no take needs most planes refused: those
     planes alone would take nothing)."""
-    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT
 
     level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
     rolled, motion = seen(level @ mounting_rotation(0.0, 6.0), 0.8, yaw_rad=0.0)
@@ -188,7 +188,7 @@ def test_a_pitch_taken_from_a_long_tilt_ahead_is_taken_back_by_the_level_road_af
     """Planes leaning 6 degrees for 25 steps (a long ramp seen ahead) are taken for the camera's pitch after 20; the
     level road after them leans -6 degrees against it, and once 20 candidates followed the take (5 of them still on the
     ramp, so after 15 level steps: their median leans -6) the pitch is back at 0."""
-    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT
 
     level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
     tilted, motion = seen(level @ pitch_rotation(6.0), 0.8, yaw_rad=0.0)

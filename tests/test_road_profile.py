@@ -6,8 +6,8 @@ import pytest
 
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_length import RoadLength
+from flowvo.odometry.road_plane import RoadPlane, fit_road_plane
 from flowvo.odometry.road_profile import MIN_CELL_POINTS, MIN_CELL_STEPS, RoadProfile, cell_medians, ground_cells
-from flowvo.odometry.road_scale import RoadPlane, fit_road_plane
 from flowvo.odometry.two_view import EssentialMotion
 
 K = np.array([[359.0, 0.0, 303.0], [0.0, 359.0, 92.0], [0.0, 0.0, 1.0]])

@@ -5,13 +5,8 @@ import pytest
 
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import rotation_angle_between_rad, so3_exp
-from flowvo.odometry.road_scale import (
-    fit_road_plane,
-    road_grid,
-    road_points_in_view,
-    road_step_length_m,
-    trusted_road_plane,
-)
+from flowvo.odometry.road_plane import fit_road_plane
+from flowvo.odometry.road_scale import road_grid, road_points_in_view, road_step_length_m, trusted_road_plane
 from flowvo.odometry.two_view import (
     EssentialMotion,
     essential_motion,
@@ -292,7 +287,8 @@ def test_road_grid_lies_in_the_band_ahead_of_the_camera():
 
 
 def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_planes_lean_alike():
-    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT, RoadPlane, RoadPlaneTally
+    from flowvo.odometry.road_plane import RoadPlane
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT, RoadPlaneTally
 
     def leaning(pitch_deg):
         pitch = np.radians(pitch_deg)
@@ -318,7 +314,8 @@ def test_the_tally_reads_a_rolled_camera_and_hints_at_its_roll_alone():
     ``mounting_rotation(0, 6).T @ (0, 1, 0)``), all refused: their roll is 6 degrees and the hint is (0, 6), the
     pitch left as given."""
     from flowvo.camera import mounting_rotation
-    from flowvo.odometry.road_scale import MIN_TILTED_FOR_HINT, RoadPlane, RoadPlaneTally
+    from flowvo.odometry.road_plane import RoadPlane
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT, RoadPlaneTally
 
     tally = RoadPlaneTally()
     for k in range(MIN_TILTED_FOR_HINT):
@@ -332,7 +329,8 @@ def test_the_pitch_advised_is_a_fixed_point_once_given_and_scattered_planes_advi
     """Planes leaning alike about a camera pitched 6 degrees up, and some level ones (most refused): the advice is the
     median of every candidate, not of the refused ones; given it, nothing more is advised. Planes refused but
     scattered over many degrees (the real dash-cam's) say the road's flow is poor, not the mounting: no advice."""
-    from flowvo.odometry.road_scale import MAX_ROAD_TILT_RAD, RoadPlane, RoadPlaneTally
+    from flowvo.odometry.road_plane import MAX_ROAD_TILT_RAD, RoadPlane
+    from flowvo.odometry.road_tally import RoadPlaneTally
 
     def tally_of(pitches_deg):
         tally = RoadPlaneTally()

@@ -35,12 +35,8 @@ from flowvo.odometry.motion_checks import MotionChecks
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
-from flowvo.odometry.road_scale import (
-    NetworkFallbackPolicy,
-    RoadPlane,
-    road_flow_within_reach,
-    road_room,
-)
+from flowvo.odometry.road_plane import RoadPlane
+from flowvo.odometry.road_scale import NetworkFallbackPolicy, road_flow_within_reach, road_room
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior

@@ -20,7 +20,8 @@ from typing import Generic, TypeVar
 
 import numpy as np
 
-from flowvo.odometry.road_scale import RoadPlane, metric_road_homography, onward_road_homography, road_homography
+from flowvo.odometry.road_plane import RoadPlane
+from flowvo.odometry.road_scale import metric_road_homography, onward_road_homography, road_homography
 from flowvo.odometry.two_view import EssentialMotion
 
 DIS_REACH_PX = 12.0  # at the reference width: road motion DIS follows without a prediction; beyond, it

@@ -1,5 +1,5 @@
 """A step's metric length from the road: the road points triangulated into a plane, gated, its normal blended
-over many steps (:class:`flowvo.odometry.road_scale.RoadNormal`), and the camera height over the plane's distance.
+over many steps (:class:`flowvo.odometry.road_normal.RoadNormal`), and the camera height over the plane's distance.
 
 Frames: the camera frame of the road key frame (x right, y down, z forward); pixels undistorted working pixels;
 lengths in metres.
@@ -10,14 +10,11 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.camera import mounting_of_road_normal, mounting_rotation
+from flowvo.odometry.road_normal import RoadNormal
+from flowvo.odometry.road_plane import RoadPlane
 from flowvo.odometry.road_profile import RoadProfile
-from flowvo.odometry.road_scale import (
-    RoadNormal,
-    RoadPlane,
-    RoadPlaneTally,
-    near_road_parallax_px,
-    trusted_road_plane,
-)
+from flowvo.odometry.road_scale import near_road_parallax_px, trusted_road_plane
+from flowvo.odometry.road_tally import RoadPlaneTally
 from flowvo.odometry.two_view import EssentialMotion
 
 

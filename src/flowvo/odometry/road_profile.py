@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.odometry.road_scale import MIN_ROAD_POINTS, RoadPlane
+from flowvo.odometry.road_plane import MIN_ROAD_POINTS, RoadPlane
 
 DEPTH_EDGES_H = np.array([5.0, 7.0, 10.0, 14.0, 20.0])  # the cells' depth bands (camera heights ahead; below the
 # first and beyond the last: one band each), about 1.4 times deeper each

@@ -1,5 +1,6 @@
-"""Metric scale from the road: the road crop and grid, the road plane fitted to triangulated road points,
-its gates (tilt, inliers), and the policy of when the network's distance stands in for a missing road.
+"""Metric scale from the road: the road crop and grid, the road points triangulated and the trusted plane through
+them (:mod:`flowvo.odometry.road_plane`), the road homographies that predict the road's flow, and the policy of when
+the network's distance stands in for a missing road.
 
 Pure functions over NumPy arrays. Frames: camera frame x right, y down, z forward; pixels of the frame the
 flow was computed at; lengths in metres, or in units of the step where said so.
@@ -7,16 +8,21 @@ flow was computed at; lengths in metres, or in units of the step where said so.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from flowvo.camera import mounting_rotation
+from flowvo.odometry.road_plane import (
+    MAX_ROAD_TILT_RAD,
+    MIN_ROAD_INLIER_FRACTION,
+    MIN_ROAD_POINTS,
+    RoadPlane,
+    fit_road_plane,
+    in_camera_frame,
+    is_trusted_road,
+)
+from flowvo.odometry.road_profile import RoadProfile
+from flowvo.odometry.road_tally import RoadPlaneTally
 from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px, triangulate
-
-if TYPE_CHECKING:
-    from flowvo.odometry.road_profile import RoadProfile
 
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
@@ -24,7 +30,6 @@ ROAD_CROP_HALF_WIDTH = 0.25  # the road crop's (:func:`road_crop`), wider than t
 ROAD_ROWS_NEEDED = 0.35  # frame heights below the principal point the grid must find inside the frame; the
 # nearer rows are read where the frame holds them
 GRID_MARGIN_PX = 4  # flow at the outermost pixels is unreliable
-MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 
 
 def road_room(image_hw: tuple[int, int], K: np.ndarray) -> str | None:
@@ -93,74 +98,6 @@ def road_points_in_view(points_prev: np.ndarray, points_next: np.ndarray, image_
     return points_prev[inside], points_next[inside]
 
 
-@dataclass(frozen=True)
-class RoadPlane:
-    """A plane ``normal . X = distance`` (camera frame, unit normal with n_y > 0) fitted to road points,
-    the fraction of the points within the inlier tolerance, and ``centre``, the point of the plane its fit
-    pivots about (the inliers' weighted centroid)."""
-
-    distance: float
-    normal: np.ndarray
-    inlier_fraction: float
-    centre: np.ndarray
-
-    @classmethod
-    def level(cls, distance: float) -> RoadPlane:
-        """The road straight below the camera's down axis at ``distance``, every point an inlier."""
-        return cls(distance, np.array([0.0, 1.0, 0.0]), 1.0, np.array([0.0, distance, 0.0]))
-
-    @property
-    def tilt_rad(self) -> float:
-        """Angle between the plane's normal and the camera's down axis (pitch and roll of the road)."""
-        return float(np.arccos(np.clip(self.normal[1], -1.0, 1.0)))
-
-
-def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float = 0.95,
-                   inlier_fraction_of_height: float = 0.03, seed: int = 0) -> RoadPlane | None:
-    """Robust plane through road points (N, 3) below the camera (y down), or None.
-
-    RANSAC over point triples whose normal is within ``acos(min_normal_y)`` of the camera's down axis,
-    inliers within a fraction of the median height, then a least-squares refit that weighs each inlier by
-    the inverse variance of its height: triangulated from a step, a road point's height errs in proportion
-    to the square of its depth ``z`` (its parallax falls with ``z^2``), so the weights are ``z^-4`` and the
-    near road carries the plane.
-    """
-    total = len(points)
-    points = points[(points[:, 2] > 0) & (points[:, 1] > 0)]
-    if len(points) < MIN_ROAD_POINTS:
-        return None
-    rng = np.random.default_rng(seed)
-    triples = points[rng.integers(0, len(points), size=(iterations, 3))]
-    normals = np.cross(triples[:, 1] - triples[:, 0], triples[:, 2] - triples[:, 0])
-    norms = np.linalg.norm(normals, axis=1)
-    usable = norms > 1e-12
-    normals = normals[usable] / norms[usable, None]
-    normals *= np.sign(normals[:, 1:2] + 1e-12)
-    triples = triples[usable]
-    upright = normals[:, 1] >= min_normal_y
-    if not upright.any():
-        return None
-    normals, triples = normals[upright], triples[upright]
-    offsets = np.einsum("ij,ij->i", normals, triples[:, 0])
-    tolerance = inlier_fraction_of_height * float(np.median(points[:, 1]))
-    distances = np.abs(points @ normals.T - offsets)  # (N, hypotheses)
-    counts = (distances < tolerance).sum(axis=0)
-    best = int(counts.argmax())
-    inliers = points[distances[:, best] < tolerance]
-    if len(inliers) < 10:
-        return None
-    weights = inliers[:, 2] ** -4.0
-    weights /= weights.sum()
-    centre = weights @ inliers
-    normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None], full_matrices=False)[2][2]
-    normal = normal if normal[1] > 0 else -normal
-    return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre)
-
-
-MAX_ROAD_TILT_RAD = np.radians(4.0)
-MIN_ROAD_INLIER_FRACTION = 0.05
-
-
 def road_points(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
                 min_parallax_px: float = 0.0, levelling: np.ndarray | None = None) -> np.ndarray | None:
     """The road correspondences triangulated (N, 3; units of the step) in the level frame (``levelling``: for a
@@ -175,22 +112,6 @@ def road_points(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
         return None
     points = triangulate(points_prev, points_next, K, motion)
     return points if levelling is None else points @ levelling.T
-
-
-def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
-                    min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION) -> bool:
-    """Whether a candidate plane (level frame) is the road the camera stands on: below the camera, tilted at
-    most ``max_tilt_rad`` from the road's normal (else a slope ahead, a hill side) and fitting at least
-    ``min_inlier_fraction`` of the points. Measured on the real clips, step lengths off by more than 15 %
-    came with a median tilt of 3-8 degrees and 8 % inliers; good ones 1.4 degrees, 30 %."""
-    return plane.distance > 0 and plane.tilt_rad <= max_tilt_rad and plane.inlier_fraction >= min_inlier_fraction
-
-
-def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane:
-    """A plane of the level frame in the camera's frame (``levelling`` as in :func:`road_points`)."""
-    if levelling is None:
-        return plane
-    return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)
 
 
 def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
@@ -235,61 +156,6 @@ def road_flow_within_reach(road_motion_px: np.ndarray, reach_px: float, predicte
     return float(np.percentile(road_motion_px, percentile)) < reach_px
 
 
-FIT_PITCH_SIGMA_RAD = 0.005  # a plane's normal from one step of road, its centre 7.4 step lengths ahead (real
-# clip 06 at 1.2 m a step: fitted pitch scatters by 0.25 deg, real pitching included); it grows with the square
-# of the depth's ratio to the baseline, as the heights it is fitted to do
-FIT_REFERENCE_DEPTH = 7.4  # step lengths
-GRADE_DRIFT_RAD = 0.0035  # per square-root second: how fast the road's normal may change beyond the camera's
-# rotation (grade, pitching); with FIT_PITCH_SIGMA_RAD it gives a new plane at 7.4 step lengths weight 0.2 at 10 Hz
-
-
-class RoadNormal:
-    """The road's normal in the camera frame, smoothed over the trusted road planes.
-
-    One step's fit tilts its plane about the centre of its near road points: a pitch error of 1 degree moves
-    the plane's distance under the camera by 3.5-7.5 % (real clips), and its fitted pitch scatters by
-    0.3-0.7 degrees. The road's normal in the camera frame changes only as the camera turns, which the
-    tracked points measure far better, and as the road's grade changes, slowly. So the normal is carried
-    from frame to frame by the measured rotation and blended with each new plane's by their variances (a
-    scalar Kalman filter): a plane's variance grows with the 4th power of its centre's depth in step
-    lengths, the carried normal's with the time since it was last measured. The plane's distance is then
-    taken through its own centre along the blended normal.
-    """
-
-    def __init__(self, fit_sigma_rad: float = FIT_PITCH_SIGMA_RAD, drift_rad: float = GRADE_DRIFT_RAD) -> None:
-        self.fit_sigma_rad = fit_sigma_rad
-        self.drift_rad = drift_rad
-        self.normal: np.ndarray | None = None  # unit, in the current frame
-        self.variance = 0.0  # rad^2
-
-    def advance(self, R_next_prev: np.ndarray, dt_s: float) -> None:
-        """Carry the normal into the next frame, ``dt_s`` seconds later (``R_next_prev`` the step's rotation)."""
-        if self.normal is not None:
-            self.normal = R_next_prev @ self.normal
-            self.variance += self.drift_rad**2 * dt_s
-
-    def forget(self) -> None:
-        """No rotation was measured: the next plane starts afresh."""
-        self.normal = None
-
-    def smoothed(self, plane: RoadPlane, R_current_plane: np.ndarray, keep: bool = True) -> RoadPlane:
-        """``plane`` (in the frame of its key frame, ``R_current_plane`` the rotation from it to the current
-        frame) through its centre along the blended normal. ``keep``: the blend is carried on (current frame);
-        False for a plane from road flow measured poorly (beyond DIS's reach without a prediction: the
-        drive's first step, say; real clip 06 at 608 and 632 px, +28 and -20 %; :func:`road_flow_within_reach`),
-        which only takes the carried normal."""
-        variance = (self.fit_sigma_rad * (plane.centre[2] / FIT_REFERENCE_DEPTH) ** 2) ** 2
-        normal, blended = plane.normal, variance
-        if self.normal is not None:
-            gain = self.variance / (self.variance + variance)
-            normal = (1.0 - gain) * (R_current_plane.T @ self.normal) + gain * plane.normal
-            normal /= np.linalg.norm(normal)
-            blended = (1.0 - gain) * self.variance
-        if keep:
-            self.normal, self.variance = R_current_plane @ normal, blended
-        return RoadPlane(float(normal @ plane.centre), normal, plane.inlier_fraction, plane.centre)
-
-
 def road_step_length_m(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
                        camera_height_m: float) -> float | None:
     """Metric length of the step: the camera height over the trusted road plane's distance in step units
@@ -329,99 +195,6 @@ def near_road_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: n
     if not len(points_prev):
         return 0.0
     return float(np.percentile(translation_parallax_px(points_prev, points_next, K, R), NEAR_ROAD_PERCENTILE))
-
-
-MIN_TILTED_FOR_HINT = 20  # candidate planes refused as tilted before they say anything of the mounting
-MIN_HINT_DEG = 1.0  # the candidates' median pitch (or roll) must be this far from the one given before it is taken
-# (see flowvo.odometry.road_length): real KITTI's level camera reads 0.0-1.0 degrees of pitch and 0.2-0.7 of roll, and
-# a mounting taken must not be followed by another
-MAX_ALIKE_SPREAD_DEG = 2.0  # the candidates' pitches (or rolls) must lean alike (inter-quartile range below this) for
-# their median to be the mounting: the real dash-cam's scatter over 4.4 degrees (-6.5 to -2.1), and their median (-3.4,
-# the horizon says -1.7) halved its speed when given as its pitch ([dashcam.md](dashcam.md))
-
-
-def _spread_deg(angles_deg: list[float]) -> float | None:
-    """The inter-quartile range of ``angles_deg`` (degrees); None before ``MIN_TILTED_FOR_HINT`` of them."""
-    if len(angles_deg) < MIN_TILTED_FOR_HINT:
-        return None
-    low, high = np.percentile(angles_deg, [25, 75])
-    return float(high - low)
-
-
-def _alike_median_deg(angles_deg: list[float]) -> float:
-    """The median of ``angles_deg`` (degrees) where they lean alike by ``MIN_HINT_DEG`` or more, else 0."""
-    spread = _spread_deg(angles_deg)
-    median = float(np.median(angles_deg))
-    return median if spread is not None and spread < MAX_ALIKE_SPREAD_DEG and abs(median) >= MIN_HINT_DEG else 0.0
-
-
-class RoadPlaneTally:
-    """How the drive's candidate road planes fared: trusted, or refused as tilted, and the pitch and roll of every
-    candidate (degrees, its normal's angle from the road's normal about the camera's x axis, positive when the
-    camera looks further down than it was said to, and about its z axis, positive when the camera's right side
-    is lower than it was said to be: :func:`flowvo.camera.mounting_rotation`). A camera pitched down or rolled but
-    taken for level sees every road plane tilted by its mounting: most planes refused, their pitches and rolls
-    alike. The mounting is estimated from all candidates, not from the refused ones alone (those lean by more than
-    the gate by construction: advice from them never settled)."""
-
-    def __init__(self) -> None:
-        self.trusted = 0
-        self.refused_as_tilted = 0
-        self.pitches_deg: list[float] = []
-        self.rolls_deg: list[float] = []
-        self._since = (0, 0)  # (trusted, refused as tilted) when the pitches were last cleared (:meth:`restart`)
-        self._taken = False  # a mounting was taken from the drive (:meth:`restart`)
-
-    def add(self, plane: RoadPlane, trusted: bool, max_tilt_rad: float = MAX_ROAD_TILT_RAD) -> None:
-        """Count a candidate plane (level frame) and whether it was trusted."""
-        self.trusted += bool(trusted)
-        self.refused_as_tilted += bool(not trusted and plane.tilt_rad > max_tilt_rad)
-        self.pitches_deg.append(float(np.degrees(np.arctan2(plane.normal[2], plane.normal[1]))))
-        self.rolls_deg.append(float(np.degrees(np.arctan2(plane.normal[0], plane.normal[1]))))
-
-    def restart(self) -> None:
-        """The camera's mounting changed (taken from the drive): it is estimated afresh from the candidates after
-        now; the counts go on."""
-        self.pitches_deg, self.rolls_deg = [], []
-        self._since = (self.trusted, self.refused_as_tilted)
-        self._taken = True
-
-    def mounting_deg(self) -> tuple[float, float] | None:
-        """The camera's pitch and roll relative to the ones given (degrees), the medians over every candidate plane;
-        None before ``MIN_TILTED_FOR_HINT`` candidates."""
-        if len(self.pitches_deg) < MIN_TILTED_FOR_HINT:
-            return None
-        return float(np.median(self.pitches_deg)), float(np.median(self.rolls_deg))
-
-    def pitch_spread_deg(self) -> float | None:
-        """The inter-quartile range of the candidates' pitches (degrees); None before ``MIN_TILTED_FOR_HINT``."""
-        return _spread_deg(self.pitches_deg)
-
-    def mounting_hint_deg(self) -> tuple[float, float] | None:
-        """The pitch and roll to add to the ones given (degrees) when most candidate planes were refused as tilted,
-        at least ``MIN_TILTED_FOR_HINT`` of them, or, once a mounting was taken from the drive, after as many
-        candidates whatever became of them: each the candidates' median where they lean alike in it
-        (``MAX_ALIKE_SPREAD_DEG``) by ``MIN_HINT_DEG`` or more, else 0; None when neither is (with the mounting taken,
-        the candidates after it centre on the road and nothing more is taken). Planes refused but scattered say the
-        road's flow is poor, not the mounting. A mounting taken is the drive's estimate, not the user's: where a
-        stretch of road rolled against the camera (a rendered world's, synthetic 08: 2.7 degrees) gave it, the
-        road after the stretch leans back by less than the gate, its planes trusted, and takes it back all the same."""
-        trusted, refused = self.trusted - self._since[0], self.refused_as_tilted - self._since[1]
-        if self._taken:
-            if trusted + refused < MIN_TILTED_FOR_HINT:
-                return None
-        elif refused < MIN_TILTED_FOR_HINT or refused <= trusted:  # the counts first: asked after every candidate
-            return None
-        hint = tuple(_alike_median_deg(angles) for angles in (self.pitches_deg, self.rolls_deg))
-        return None if hint == (0.0, 0.0) else hint
-
-    def record(self) -> dict:
-        """The tally as ``run.json`` records it."""
-        mounting = self.mounting_deg()
-        return {"trusted": self.trusted, "refused_as_tilted": self.refused_as_tilted,
-                "candidates_median_pitch_deg": None if mounting is None else round(mounting[0], 2),
-                "candidates_median_roll_deg": None if mounting is None else round(mounting[1], 2),
-                "candidates_pitch_spread_deg": None if mounting is None else round(self.pitch_spread_deg(), 2)}
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own

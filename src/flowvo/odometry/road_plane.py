@@ -1,0 +1,98 @@
+"""The road plane: a robust plane through triangulated road points, the gates that trust it as the road the camera
+stands on (tilt, inliers), and its way from the road-levelled frame into the camera's.
+
+Pure functions over NumPy arrays. Frames: camera frame x right, y down, z forward (or the road-levelled camera frame
+where said so); distances in units of the step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
+
+
+@dataclass(frozen=True)
+class RoadPlane:
+    """A plane ``normal . X = distance`` (camera frame, unit normal with n_y > 0) fitted to road points,
+    the fraction of the points within the inlier tolerance, and ``centre``, the point of the plane its fit
+    pivots about (the inliers' weighted centroid)."""
+
+    distance: float
+    normal: np.ndarray
+    inlier_fraction: float
+    centre: np.ndarray
+
+    @classmethod
+    def level(cls, distance: float) -> RoadPlane:
+        """The road straight below the camera's down axis at ``distance``, every point an inlier."""
+        return cls(distance, np.array([0.0, 1.0, 0.0]), 1.0, np.array([0.0, distance, 0.0]))
+
+    @property
+    def tilt_rad(self) -> float:
+        """Angle between the plane's normal and the camera's down axis (pitch and roll of the road)."""
+        return float(np.arccos(np.clip(self.normal[1], -1.0, 1.0)))
+
+
+def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float = 0.95,
+                   inlier_fraction_of_height: float = 0.03, seed: int = 0) -> RoadPlane | None:
+    """Robust plane through road points (N, 3) below the camera (y down), or None.
+
+    RANSAC over point triples whose normal is within ``acos(min_normal_y)`` of the camera's down axis,
+    inliers within a fraction of the median height, then a least-squares refit that weighs each inlier by
+    the inverse variance of its height: triangulated from a step, a road point's height errs in proportion
+    to the square of its depth ``z`` (its parallax falls with ``z^2``), so the weights are ``z^-4`` and the
+    near road carries the plane.
+    """
+    total = len(points)
+    points = points[(points[:, 2] > 0) & (points[:, 1] > 0)]
+    if len(points) < MIN_ROAD_POINTS:
+        return None
+    rng = np.random.default_rng(seed)
+    triples = points[rng.integers(0, len(points), size=(iterations, 3))]
+    normals = np.cross(triples[:, 1] - triples[:, 0], triples[:, 2] - triples[:, 0])
+    norms = np.linalg.norm(normals, axis=1)
+    usable = norms > 1e-12
+    normals = normals[usable] / norms[usable, None]
+    normals *= np.sign(normals[:, 1:2] + 1e-12)
+    triples = triples[usable]
+    upright = normals[:, 1] >= min_normal_y
+    if not upright.any():
+        return None
+    normals, triples = normals[upright], triples[upright]
+    offsets = np.einsum("ij,ij->i", normals, triples[:, 0])
+    tolerance = inlier_fraction_of_height * float(np.median(points[:, 1]))
+    distances = np.abs(points @ normals.T - offsets)  # (N, hypotheses)
+    counts = (distances < tolerance).sum(axis=0)
+    best = int(counts.argmax())
+    inliers = points[distances[:, best] < tolerance]
+    if len(inliers) < 10:
+        return None
+    weights = inliers[:, 2] ** -4.0
+    weights /= weights.sum()
+    centre = weights @ inliers
+    normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None], full_matrices=False)[2][2]
+    normal = normal if normal[1] > 0 else -normal
+    return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre)
+
+
+MAX_ROAD_TILT_RAD = np.radians(4.0)
+MIN_ROAD_INLIER_FRACTION = 0.05
+
+
+def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
+                    min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION) -> bool:
+    """Whether a candidate plane (level frame) is the road the camera stands on: below the camera, tilted at
+    most ``max_tilt_rad`` from the road's normal (else a slope ahead, a hill side) and fitting at least
+    ``min_inlier_fraction`` of the points. Measured on the real clips, step lengths off by more than 15 %
+    came with a median tilt of 3-8 degrees and 8 % inliers; good ones 1.4 degrees, 30 %."""
+    return plane.distance > 0 and plane.tilt_rad <= max_tilt_rad and plane.inlier_fraction >= min_inlier_fraction
+
+
+def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane:
+    """A plane of the level frame in the camera's frame (``levelling`` as in :func:`road_points`)."""
+    if levelling is None:
+        return plane
+    return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)
