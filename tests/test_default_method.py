@@ -203,6 +203,28 @@ def test_without_a_trusted_road_the_network_measures_after_a_second():
     assert lengths[0] == pytest.approx(1.0, rel=1e-4) and lengths[-1] > 1.0  # the prior, then the network's 2 m pull
 
 
+def test_while_the_drives_mounting_is_pending_the_network_waits_for_the_road():
+    """Planes refused as tilted at a drive's start (a camera pitched down, told level) are the road seen through a
+    mounting not taken yet: no network distance then, however long no plane is trusted; once the mounting is
+    judged (here: as many planes trusted as refused), the network steps in after its second as before."""
+    probe = FlowGeometryStep(CAMERA, HW)
+    network, calls = fallback_network(probe, 2.0)
+    step = FlowGeometryStep(CAMERA, HW, fallback=network)
+    step.road_length.tally.refused_as_tilted = 5  # the drive's first candidate planes, refused as tilted
+    flow = step_flow(step, 1.0)
+    no_road = dataclasses.replace(flow, road_prev=flow.road_prev[:5], road_next=flow.road_next[:5])
+    for t in np.arange(0.0, 1.5, 0.1):
+        step.motion((t, t + 0.1), flow.current, no_road)
+    assert calls == [] and step.summary()["network_distance_steps"] == 0
+    step.road_length.tally.trusted = 5  # no longer most of them refused: not pending
+    for k in range(15, 24):  # within a second of the road last seen (steps ending at 1.6 .. 2.4 s)
+        step.motion((k / 10, (k + 1) / 10), flow.current, no_road)
+    assert calls == []
+    for k in range(24, 28):  # past it
+        step.motion((k / 10, (k + 1) / 10), flow.current, no_road)
+    assert len(calls) == 3  # the steps ending at 2.6, 2.7 and 2.8 s
+
+
 def test_a_slowly_moving_road_keeps_its_key_frame_and_scales_the_step_by_time():
     step = FlowGeometryStep(CAMERA, HW)
     previous = untracked_frame()

@@ -309,6 +309,29 @@ def test_the_tally_of_road_planes_hints_at_a_pitched_camera_only_when_most_plane
     assert few.pitches_deg == [pytest.approx(-9.0)] and few.mounting_hint_deg() is None
 
 
+def test_the_tallys_mounting_is_pending_while_most_planes_are_refused_and_too_few_to_take_it():
+    from flowvo.odometry.road_plane import RoadPlane
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT, RoadPlaneTally
+
+    tilted = RoadPlane(50.0, np.array([0.0, np.cos(0.14), np.sin(0.14)]), 0.5, np.zeros(3))  # 8 degrees
+    tally = RoadPlaneTally()
+    assert not tally.mounting_pending()  # nothing seen yet
+    tally.add(tilted, trusted=False)
+    assert tally.mounting_pending()
+    tally.add(tilted, trusted=True)
+    assert not tally.mounting_pending()  # as many trusted as refused
+    for _ in range(MIN_TILTED_FOR_HINT - 2):
+        tally.add(tilted, trusted=False)
+    assert tally.refused_as_tilted == MIN_TILTED_FOR_HINT - 1 and tally.mounting_pending()
+    tally.add(tilted, trusted=False)
+    assert not tally.mounting_pending()  # enough to judge the mounting from: the hint decides now
+    fresh = RoadPlaneTally()
+    fresh.add(tilted, trusted=False)
+    fresh.restart()  # a mounting was taken from the drive
+    fresh.add(tilted, trusted=False)
+    assert not fresh.mounting_pending()
+
+
 def test_the_tally_reads_a_rolled_camera_and_hints_at_its_roll_alone():
     """Planes seen by a camera rolled 6 degrees, right side down (its road's normal in its own frame is
     ``mounting_rotation(0, 6).T @ (0, 1, 0)``), all refused: their roll is 6 degrees and the hint is (0, 6), the

@@ -306,8 +306,12 @@ class FlowGeometryStep(WorkingFrames):
     def _network_where_no_road(self, time_s: float, road_seen: bool, previous: GeometryFrame,
                                current: GeometryFrame) -> float | None:
         """The network's distance (metres) where no trusted road was seen for a while and a network is there
-        (:class:`NetworkFallbackPolicy`: the speed prior alone would drift), else None."""
-        if road_seen:
+        (:class:`NetworkFallbackPolicy`: the speed prior alone would drift), else None. Planes refused as tilted
+        while the drive's mounting is pending (:meth:`RoadPlaneTally.mounting_pending`) are the road seen through a
+        pitch not known yet: the steps wait for it (held, at a drive's start, until it measures them) instead of
+        taking the network's distance, which the level cameras it learnt from leave 24 % long on a camera pitched 8
+        degrees down (the first 20 steps of a generated drive run as if level)."""
+        if road_seen or self.road_length.tally.mounting_pending():
             self.fallback_policy.road_seen(time_s)
             return None
         if self.fallback is not None and self.fallback_policy.network_needed(time_s):

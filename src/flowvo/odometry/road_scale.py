@@ -211,7 +211,8 @@ class NetworkFallbackPolicy:
         self.network_steps = 0
 
     def road_seen(self, time_s: float) -> None:
-        """A trusted road plane gave the step at ``time_s`` (seconds)."""
+        """The road was seen at ``time_s`` (seconds): a trusted road plane gave the step, or the planes await the
+        drive's mounting."""
         self.last_road_time_s = time_s
 
     def network_needed(self, time_s: float) -> bool:

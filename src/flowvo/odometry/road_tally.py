@@ -74,6 +74,12 @@ class RoadPlaneTally:
         """The inter-quartile range of the candidates' pitches (degrees); None before ``MIN_TILTED_FOR_HINT``."""
         return _spread_deg(self.pitches_deg)
 
+    def mounting_pending(self) -> bool:
+        """Whether the candidate planes so far say the camera may be mounted otherwise than given, too few yet to
+        take it from: no mounting taken, most candidates refused as tilted, fewer than ``MIN_TILTED_FOR_HINT`` of
+        them (a drive's first seconds with its pitch not told: the road is seen, through a mounting not known yet)."""
+        return not self._taken and self.trusted < self.refused_as_tilted < MIN_TILTED_FOR_HINT
+
     def mounting_hint_deg(self) -> tuple[float, float] | None:
         """The pitch and roll to add to the ones given (degrees) when most candidate planes were refused as tilted,
         at least ``MIN_TILTED_FOR_HINT`` of them, or, once a mounting was taken from the drive, after as many
