@@ -49,8 +49,8 @@ class RoadNormal:
         """``plane`` (in the frame of its key frame, ``R_current_plane`` the rotation from it to the current
         frame) through its centre along the blended normal. ``keep``: the blend is carried on (current frame);
         False for a plane from road flow measured poorly (beyond DIS's reach without a prediction: the
-        drive's first step, say; real clip 06 at 608 and 632 px, +28 and -20 %; :func:`road_flow_within_reach`),
-        which only takes the carried normal."""
+        drive's first step, say; real clip 06 at 608 and 632 px, +28 and -20 %;
+        :func:`flowvo.odometry.road_scale.road_flow_within_reach`), which only takes the carried normal."""
         variance = (self.fit_sigma_rad * (plane.centre[2] / FIT_REFERENCE_DEPTH) ** 2) ** 2
         normal, blended = plane.normal, variance
         if self.normal is not None:

@@ -92,7 +92,8 @@ def is_trusted_road(plane: RoadPlane, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
 
 
 def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane:
-    """A plane of the level frame in the camera's frame (``levelling`` as in :func:`road_points`)."""
+    """A plane of the level frame in the camera's frame (``levelling`` as in
+    :func:`flowvo.odometry.road_scale.road_points`)."""
     if levelling is None:
         return plane
     return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)

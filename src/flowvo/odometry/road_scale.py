@@ -119,9 +119,10 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
                        min_parallax_px: float = 0.0, levelling: np.ndarray | None = None,
                        tally: RoadPlaneTally | None = None, profile: RoadProfile | None = None) -> RoadPlane | None:
     """The road plane the camera stands on, from road correspondences (distance in units of the step, the
-    camera's frame), or None: the plane fitted to the :func:`road_points` that passes :func:`is_trusted_road`; each
-    candidate is counted in ``tally`` when given. With a ``profile``, the points it keeps are fitted, and it learns
-    from every trusted plane (:class:`flowvo.odometry.road_profile.RoadProfile`)."""
+    camera's frame), or None: the plane fitted to the :func:`road_points` that passes
+    :func:`flowvo.odometry.road_plane.is_trusted_road`; each candidate is counted in ``tally`` when given. With a
+    ``profile``, the points it keeps are fitted, and it learns from every trusted plane
+    (:class:`flowvo.odometry.road_profile.RoadProfile`)."""
     points = road_points(points_prev, points_next, K, motion, min_parallax_px, levelling)
     if points is None:
         return None
