@@ -173,7 +173,7 @@ def test_the_blended_normal_is_carried_by_the_rotation_and_only_kept_from_measur
     stage = road_length()
     level = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M)
     stage.measure(*seen(level, 1.0), measured=True)
-    stage.advance(np.eye(3), 0.1)
+    stage.advance(np.eye(3), 0.1, 1.0)
     kept = stage.normal.normal.copy()
     pitch = np.radians(2.0)
     road, motion = seen(on_plane(np.array([0.0, np.cos(pitch), np.sin(pitch)]), HEIGHT_M), 1.0)

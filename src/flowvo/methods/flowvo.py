@@ -238,7 +238,9 @@ class FlowGeometryStep(WorkingFrames):
                                       self.speed.last_speed_mps)
             key_fit = fit if span.from_previous else road_key_fit
         self.checks.advance((times_s[0], previous), time_s, fit.R)
-        self.road_length.advance(fit.R, dt_s)
+        last_speed_mps = self.speed.last_speed_mps
+        self.road_length.advance(fit.R, dt_s, 0.0 if last_speed_mps is None else last_speed_mps * dt_s)  # the step at
+        # the last speed: where along the drive the road measured ahead lies under the car (its own length comes later)
         taken = len(self.road_length.pitches_taken_deg)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
         if len(self.road_length.pitches_taken_deg) > taken:  # the drive's mounting: the car's axes turn with it, and

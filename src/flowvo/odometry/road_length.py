@@ -1,5 +1,6 @@
 """A step's metric length from the road: the road points triangulated into a plane, gated, its normal blended
-over many steps (:class:`flowvo.odometry.road_normal.RoadNormal`), and the camera height over the plane's distance.
+over many steps and its distance taken under the car (:class:`flowvo.odometry.road_normal.RoadNormal`), and the
+camera height over that distance.
 
 Frames: the camera frame of the road key frame (x right, y down, z forward); pixels undistorted working pixels;
 lengths in metres.
@@ -41,9 +42,10 @@ class RoadLength:
         self.profile = RoadProfile()
         self.near_parallax_px = 0.0  # the last trusted plane's near road motion beyond the rotation (pixels; 0: none)
 
-    def advance(self, R_next_prev: np.ndarray, dt_s: float) -> None:
-        """Carry the road's normal over a step of ``dt_s`` seconds with rotation ``R_next_prev``."""
-        self.normal.advance(R_next_prev, dt_s)
+    def advance(self, R_next_prev: np.ndarray, dt_s: float, step_m: float) -> None:
+        """Carry the road's normal over a step of ``dt_s`` seconds and about ``step_m`` metres with rotation
+        ``R_next_prev``."""
+        self.normal.advance(R_next_prev, dt_s, step_m)
 
     def forget(self) -> None:
         """No rotation was measured: the next plane starts afresh."""
@@ -67,7 +69,7 @@ class RoadLength:
         if plane is None:
             return None, None
         self.near_parallax_px = near_px
-        plane = self.normal.smoothed(plane, key_fit.R, keep=measured)
+        plane = self.normal.smoothed(plane, key_fit.R, keep=measured, camera_height_m=self.camera_height_m)
         return plane, self.camera_height_m / plane.distance
 
     def _level_by_the_drive(self) -> None:

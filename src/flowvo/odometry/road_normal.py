@@ -1,5 +1,8 @@
 """The road's normal in the camera frame, blended over the trusted road planes and carried by the camera's rotation
-(a scalar Kalman filter). Angles in radians; planes in the camera frame, distances in units of the step.
+(a scalar Kalman filter) and by the road's vertical curve, and the road plane's distance taken under the car (along
+the chord from the road under the car to the plane's centre).
+
+Angles in radians; planes in the camera frame, distances in units of the step; places along the drive in metres.
 """
 
 from __future__ import annotations
@@ -14,10 +17,13 @@ FIT_PITCH_SIGMA_RAD = 0.005  # a plane's normal from one step of road, its centr
 FIT_REFERENCE_DEPTH = 7.4  # step lengths
 GRADE_DRIFT_RAD = 0.0035  # per square-root second: how fast the road's normal may change beyond the camera's
 # rotation (grade, pitching); with FIT_PITCH_SIGMA_RAD it gives a new plane at 7.4 step lengths weight 0.2 at 10 Hz
+CURVE_WEIGHT = 0.1  # the weight of each trusted plane's vertical curve in the running estimate (about twenty planes)
+BEHIND_M = 20.0  # the normals of the road ahead are kept until the car is this far past their place (a road key
+# frame up to 0.5 s back at 40 m/s)
 
 
 class RoadNormal:
-    """The road's normal in the camera frame, smoothed over the trusted road planes.
+    """The road's normal in the camera frame, smoothed over the trusted road planes, and the road under the car.
 
     One step's fit tilts its plane about the centre of its near road points: a pitch error of 1 degree moves
     the plane's distance under the camera by 3.5-7.5 % (real clips), and its fitted pitch scatters by
@@ -25,31 +31,53 @@ class RoadNormal:
     tracked points measure far better, and as the road's grade changes, slowly. So the normal is carried
     from frame to frame by the measured rotation and blended with each new plane's by their variances (a
     scalar Kalman filter): a plane's variance grows with the 4th power of its centre's depth in step
-    lengths, the carried normal's with the time since it was last measured. The plane's distance is then
-    taken through its own centre along the blended normal.
-    """
+    lengths, the carried normal's with the time since it was last measured.
+
+    That normal is the road's where the fits are centred, some metres ahead, and where the road's grade changes
+    (a vertical curve) it is not the normal of the road under the car: a plane through the centre along it
+    extrapolates the road there to the car and misplaces it by up to ``curvature z^2 / 2``. So each blended normal
+    is kept with the place along the drive its centre lay at, carried by the rotations since; once the car has
+    driven there, that is the normal of the road under it. The plane's distance is taken through its centre along
+    the bisector of the two normals (the chord's: exact on a road of constant vertical curvature), and the angle
+    between them over the centre's distance is the road's curvature, by which the normal ahead is carried on as the
+    car drives (carried by the rotation alone, a normal stays with the road where it was measured, behind the
+    place the fits are centred at). Metres are the method's (its lengths in units of KITTI's camera height)."""
 
     def __init__(self, fit_sigma_rad: float = FIT_PITCH_SIGMA_RAD, drift_rad: float = GRADE_DRIFT_RAD) -> None:
         self.fit_sigma_rad = fit_sigma_rad
         self.drift_rad = drift_rad
         self.normal: np.ndarray | None = None  # unit, in the current frame
         self.variance = 0.0  # rad^2
+        self.travelled_m = 0.0  # the car's place along the drive, from the step lengths :meth:`advance` was given
+        self.curvature_per_m = 0.0  # how far the road's normal turns toward the forward axis per metre (a sag: > 0)
+        self._ahead_normals = np.zeros((0, 3))  # blended normals of the road ahead (current frame, unit)
+        self._ahead_places_m = np.zeros(0)  # and where along the drive their centres lay, ascending
 
-    def advance(self, R_next_prev: np.ndarray, dt_s: float) -> None:
-        """Carry the normal into the next frame, ``dt_s`` seconds later (``R_next_prev`` the step's rotation)."""
+    def advance(self, R_next_prev: np.ndarray, dt_s: float, step_m: float = 0.0) -> None:
+        """Carry the normals into the next frame, ``dt_s`` seconds and about ``step_m`` metres later
+        (``R_next_prev`` the step's rotation): the normal ahead turns with the road's curve as well."""
         if self.normal is not None:
-            self.normal = R_next_prev @ self.normal
+            self.normal = turned_forward(R_next_prev @ self.normal, self.curvature_per_m * step_m)
             self.variance += self.drift_rad**2 * dt_s
+        self.travelled_m += step_m
+        kept = self._ahead_places_m > self.travelled_m - BEHIND_M
+        self._ahead_normals = self._ahead_normals[kept] @ R_next_prev.T
+        self._ahead_places_m = self._ahead_places_m[kept]
 
     def forget(self) -> None:
         """No rotation was measured: the next plane starts afresh."""
         self.normal = None
+        self.curvature_per_m = 0.0
+        self._ahead_normals, self._ahead_places_m = np.zeros((0, 3)), np.zeros(0)
 
-    def smoothed(self, plane: RoadPlane, R_current_plane: np.ndarray, keep: bool = True) -> RoadPlane:
+    def smoothed(self, plane: RoadPlane, R_current_plane: np.ndarray, keep: bool = True,
+                 camera_height_m: float | None = None) -> RoadPlane:
         """``plane`` (in the frame of its key frame, ``R_current_plane`` the rotation from it to the current
-        frame) through its centre along the blended normal. ``keep``: the blend is carried on (current frame);
-        False for a plane from road flow measured poorly (beyond DIS's reach without a prediction: the
-        drive's first step, say; real clip 06 at 608 and 632 px, +28 and -20 %;
+        frame) through its centre along the blended normal, or with ``camera_height_m`` (metres; the plane's distance
+        then gives the metres of the key frame's span, which is one unit long) along the bisector of it and the normal
+        under the key frame's camera where the car has driven over a road measured ahead (class docstring). ``keep``:
+        the blend is carried on (current frame); False for a plane from road flow measured poorly (beyond DIS's reach
+        without a prediction: the drive's first step, say; real clip 06 at 608 and 632 px, +28 and -20 %;
         :func:`flowvo.odometry.road_scale.road_flow_within_reach`), which only takes the carried normal."""
         variance = (self.fit_sigma_rad * (plane.centre[2] / FIT_REFERENCE_DEPTH) ** 2) ** 2
         normal, blended = plane.normal, variance
@@ -60,4 +88,51 @@ class RoadNormal:
             blended = (1.0 - gain) * self.variance
         if keep:
             self.normal, self.variance = R_current_plane @ normal, blended
-        return RoadPlane(float(normal @ plane.centre), normal, plane.inlier_fraction, plane.centre)
+        ahead = RoadPlane(float(normal @ plane.centre), normal, plane.inlier_fraction, plane.centre)
+        if camera_height_m is None or ahead.distance <= 0:
+            return ahead
+        metres_per_unit = camera_height_m / ahead.distance
+        key_place_m = self.travelled_m - metres_per_unit
+        centre_m = plane.centre[2] * metres_per_unit
+        under = self._normal_at(key_place_m)
+        if keep:
+            self._ahead_normals = np.vstack([self._ahead_normals, R_current_plane @ normal])
+            self._ahead_places_m = np.append(self._ahead_places_m, key_place_m + centre_m)
+            order = np.argsort(self._ahead_places_m, kind="stable")
+            self._ahead_normals, self._ahead_places_m = self._ahead_normals[order], self._ahead_places_m[order]
+        if under is None:
+            return ahead
+        under = R_current_plane.T @ under
+        if keep:
+            curve = (forward_angle(normal) - forward_angle(under)) / centre_m
+            self.curvature_per_m += CURVE_WEIGHT * (curve - self.curvature_per_m)
+        chord = normal + under
+        chord /= np.linalg.norm(chord)
+        return RoadPlane(float(chord @ plane.centre), chord, plane.inlier_fraction, plane.centre)
+
+    def _normal_at(self, place_m: float) -> np.ndarray | None:
+        """The normal of the road measured at ``place_m`` along the drive (current frame, unit; interpolated between
+        the two places around it), or None where no kept place lies on each side of it."""
+        places = self._ahead_places_m
+        after = int(np.searchsorted(places, place_m))
+        if after == 0 or after == len(places):
+            return None
+        low, high = places[after - 1], places[after]
+        share = 0.0 if high == low else (place_m - low) / (high - low)
+        normal = (1.0 - share) * self._ahead_normals[after - 1] + share * self._ahead_normals[after]
+        return normal / np.linalg.norm(normal)
+
+
+def forward_angle(normal: np.ndarray) -> float:
+    """How far a road normal (camera frame, unit) leans toward the camera's forward axis z (radians)."""
+    return float(np.arcsin(np.clip(normal[2], -1.0, 1.0)))
+
+
+def turned_forward(normal: np.ndarray, angle_rad: float) -> np.ndarray:
+    """``normal`` (unit) turned by ``angle_rad`` toward the camera's forward axis z, about the axis across both."""
+    axis = np.cross(normal, np.array([0.0, 0.0, 1.0]))
+    norm = np.linalg.norm(axis)
+    if not angle_rad or norm < 1e-12:
+        return normal
+    axis /= norm
+    return normal * np.cos(angle_rad) + np.cross(axis, normal) * np.sin(angle_rad)
