@@ -1,6 +1,6 @@
 """The road's normal in the camera frame, blended over the trusted road planes and carried by the camera's rotation
-(a scalar Kalman filter) and by the road's vertical curve, and the road plane's distance taken under the car (along
-the chord from the road under the car to the plane's centre).
+(a scalar Kalman filter) and by the road's vertical curve, and the road plane's distance taken under the car (the
+road's normal there and its curve up to the plane's centre).
 
 Angles in radians; planes in the camera frame, distances in units of the step; places along the drive in metres.
 """
@@ -36,12 +36,14 @@ class RoadNormal:
     That normal is the road's where the fits are centred, some metres ahead, and where the road's grade changes
     (a vertical curve) it is not the normal of the road under the car: a plane through the centre along it
     extrapolates the road there to the car and misplaces it by up to ``curvature z^2 / 2``. So each blended normal
-    is kept with the place along the drive its centre lay at, carried by the rotations since; once the car has
-    driven there, that is the normal of the road under it. The plane's distance is taken through its centre along
-    the bisector of the two normals (the chord's: exact on a road of constant vertical curvature), and the angle
-    between them over the centre's distance is the road's curvature, by which the normal ahead is carried on as the
-    car drives (carried by the rotation alone, a normal stays with the road where it was measured, behind the
-    place the fits are centred at). Metres are the method's (its lengths in units of KITTI's camera height)."""
+    is kept with the place along the drive where the road has its tilt (the plane's ``slope_depth`` ahead: its fit
+    weighs the near road most, so metres beyond its centre), carried by the rotations since; once the car has driven
+    there, that is the normal of the road under it. The angle between the two over that distance is the road's
+    curvature, and the plane's distance is the centre's height along the normal under the car plus the curve's rise
+    over the centre's points (``curvature depth_square / 2``): exact on a road of constant vertical curvature. A
+    running mean of the curvature carries the normal ahead on as the car drives (carried by the rotation alone, a
+    normal stays with the road where it was measured, behind the place the fits are centred at). Metres are the
+    method's (its lengths in units of KITTI's camera height)."""
 
     def __init__(self, fit_sigma_rad: float = FIT_PITCH_SIGMA_RAD, drift_rad: float = GRADE_DRIFT_RAD) -> None:
         self.fit_sigma_rad = fit_sigma_rad
@@ -74,8 +76,8 @@ class RoadNormal:
                  camera_height_m: float | None = None) -> RoadPlane:
         """``plane`` (in the frame of its key frame, ``R_current_plane`` the rotation from it to the current
         frame) through its centre along the blended normal, or with ``camera_height_m`` (metres; the plane's distance
-        then gives the metres of the key frame's span, which is one unit long) along the bisector of it and the normal
-        under the key frame's camera where the car has driven over a road measured ahead (class docstring). ``keep``:
+        then gives the metres of the key frame's span, which is one unit long) taken under the key frame's camera where
+        the car has driven over a road measured ahead (class docstring; the returned normal bisects the two). ``keep``:
         the blend is carried on (current frame); False for a plane from road flow measured poorly (beyond DIS's reach
         without a prediction: the drive's first step, say; real clip 06 at 608 and 632 px, +28 and -20 %;
         :func:`flowvo.odometry.road_scale.road_flow_within_reach`), which only takes the carried normal."""
@@ -93,22 +95,26 @@ class RoadNormal:
             return ahead
         metres_per_unit = camera_height_m / ahead.distance
         key_place_m = self.travelled_m - metres_per_unit
-        centre_m = plane.centre[2] * metres_per_unit
+        slope_depth = plane.centre[2] if plane.slope_depth is None else plane.slope_depth
+        depth_square = plane.centre[2] ** 2 if plane.depth_square is None else plane.depth_square
+        slope_m = slope_depth * metres_per_unit  # how far ahead of the key frame the road has the blend's tilt
         under = self._normal_at(key_place_m)
         if keep:
             self._ahead_normals = np.vstack([self._ahead_normals, R_current_plane @ normal])
-            self._ahead_places_m = np.append(self._ahead_places_m, key_place_m + centre_m)
+            self._ahead_places_m = np.append(self._ahead_places_m, key_place_m + slope_m)
             order = np.argsort(self._ahead_places_m, kind="stable")
             self._ahead_normals, self._ahead_places_m = self._ahead_normals[order], self._ahead_places_m[order]
         if under is None:
             return ahead
         under = R_current_plane.T @ under
+        turn = forward_angle(normal) - forward_angle(under)  # the road's, from under the camera to slope_depth ahead
         if keep:
-            curve = (forward_angle(normal) - forward_angle(under)) / centre_m
-            self.curvature_per_m += CURVE_WEIGHT * (curve - self.curvature_per_m)
+            self.curvature_per_m += CURVE_WEIGHT * (turn / slope_m - self.curvature_per_m)
         chord = normal + under
         chord /= np.linalg.norm(chord)
-        return RoadPlane(float(chord @ plane.centre), chord, plane.inlier_fraction, plane.centre)
+        distance = float(under @ plane.centre) + turn * depth_square / (2.0 * slope_depth)  # the centre's height over
+        # the road under the camera, and the curve's rise over the centre's points
+        return RoadPlane(distance, chord, plane.inlier_fraction, plane.centre)
 
     def _normal_at(self, place_m: float) -> np.ndarray | None:
         """The normal of the road measured at ``place_m`` along the drive (current frame, unit; interpolated between

@@ -18,12 +18,19 @@ MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 class RoadPlane:
     """A plane ``normal . X = distance`` (camera frame, unit normal with n_y > 0) fitted to road points,
     the fraction of the points within the inlier tolerance, and ``centre``, the point of the plane its fit
-    pivots about (the inliers' weighted centroid)."""
+    pivots about (the inliers' weighted centroid). From a fit, the weighted moments of its inliers' depth:
+    ``slope_depth``, the depth at which a road curving in depth has the plane's tilt (``z + m3 / (2 m2)``, the
+    centroid's depth plus the third central moment over twice the second: the weights favour the near road, so it
+    lies metres beyond the centroid), and ``depth_square``, the mean square depth (``z^2 + m2``): on a road
+    ``y = h - curvature z^2 / 2`` the centroid lies ``curvature depth_square / 2`` off the road under the camera.
+    Same unit as the points; None where the plane was not fitted."""
 
     distance: float
     normal: np.ndarray
     inlier_fraction: float
     centre: np.ndarray
+    slope_depth: float | None = None
+    depth_square: float | None = None
 
     @classmethod
     def level(cls, distance: float) -> RoadPlane:
@@ -75,7 +82,11 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
     centre = weights @ inliers
     normal = np.linalg.svd((inliers - centre) * np.sqrt(weights)[:, None], full_matrices=False)[2][2]
     normal = normal if normal[1] > 0 else -normal
-    return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre)
+    offsets = inliers[:, 2] - centre[2]
+    spread, skew = float(weights @ offsets**2), float(weights @ offsets**3)
+    slope_depth = centre[2] + (skew / (2.0 * spread) if spread > 1e-12 * centre[2] ** 2 else 0.0)
+    return RoadPlane(float(normal @ centre), normal, len(inliers) / total, centre, float(slope_depth),
+                     float(centre[2] ** 2 + spread))
 
 
 MAX_ROAD_TILT_RAD = np.radians(4.0)
@@ -96,4 +107,5 @@ def in_camera_frame(plane: RoadPlane, levelling: np.ndarray | None) -> RoadPlane
     :func:`flowvo.odometry.road_scale.road_points`)."""
     if levelling is None:
         return plane
-    return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre)
+    return RoadPlane(plane.distance, levelling.T @ plane.normal, plane.inlier_fraction, levelling.T @ plane.centre,
+                     plane.slope_depth, plane.depth_square)
