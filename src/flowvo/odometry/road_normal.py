@@ -53,7 +53,7 @@ class RoadNormal:
         self.travelled_m = 0.0  # the car's place along the drive, from the step lengths :meth:`advance` was given
         self.curvature_per_m = 0.0  # how far the road's normal turns toward the forward axis per metre (a sag: > 0)
         self._ahead_normals = np.zeros((0, 3))  # blended normals of the road ahead (current frame, unit)
-        self._ahead_places_m = np.zeros(0)  # and where along the drive their centres lay, ascending
+        self._ahead_places_m = np.zeros(0)  # and where along the drive the road had their tilt, ascending
 
     def advance(self, R_next_prev: np.ndarray, dt_s: float, step_m: float = 0.0) -> None:
         """Carry the normals into the next frame, ``dt_s`` seconds and about ``step_m`` metres later
