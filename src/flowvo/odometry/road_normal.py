@@ -7,8 +7,11 @@ Angles in radians; planes in the camera frame, distances in units of the step; p
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from flowvo.camera import mounting_of_road_normal
 from flowvo.odometry.road_plane import RoadPlane
 
 FIT_PITCH_SIGMA_RAD = 0.005  # a plane's normal from one step of road, its centre 7.4 step lengths ahead (real
@@ -100,14 +103,14 @@ class RoadNormal:
         slope_m = slope_depth * metres_per_unit  # how far ahead of the key frame the road has the blend's tilt
         under = self._normal_at(key_place_m)
         if keep:
-            self._ahead_normals = np.vstack([self._ahead_normals, R_current_plane @ normal])
-            self._ahead_places_m = np.append(self._ahead_places_m, key_place_m + slope_m)
-            order = np.argsort(self._ahead_places_m, kind="stable")
-            self._ahead_normals, self._ahead_places_m = self._ahead_normals[order], self._ahead_places_m[order]
+            at = int(np.searchsorted(self._ahead_places_m, key_place_m + slope_m, side="right"))
+            self._ahead_normals = np.insert(self._ahead_normals, at, R_current_plane @ normal, axis=0)
+            self._ahead_places_m = np.insert(self._ahead_places_m, at, key_place_m + slope_m)
         if under is None:
             return ahead
         under = R_current_plane.T @ under
-        turn = forward_angle(normal) - forward_angle(under)  # the road's, from under the camera to slope_depth ahead
+        turn = math.radians(mounting_of_road_normal(normal)[0] - mounting_of_road_normal(under)[0])  # the road's, from
+        # under the camera to slope_depth ahead: how far the normal leans toward the forward axis, as a camera's pitch
         if keep:
             self.curvature_per_m += CURVE_WEIGHT * (turn / slope_m - self.curvature_per_m)
         chord = normal + under
@@ -127,11 +130,6 @@ class RoadNormal:
         share = 0.0 if high == low else (place_m - low) / (high - low)
         normal = (1.0 - share) * self._ahead_normals[after - 1] + share * self._ahead_normals[after]
         return normal / np.linalg.norm(normal)
-
-
-def forward_angle(normal: np.ndarray) -> float:
-    """How far a road normal (camera frame, unit) leans toward the camera's forward axis z (radians)."""
-    return float(np.arcsin(np.clip(normal[2], -1.0, 1.0)))
 
 
 def turned_forward(normal: np.ndarray, angle_rad: float) -> np.ndarray:
