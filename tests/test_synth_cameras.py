@@ -25,9 +25,11 @@ from flowvo.synth.world import build_world
 BARREL = LensDistortion("plumb_bob", (-0.25, 0.05, 0.0, 0.0))
 PHONE_LIKE = SynthCamera(height_m=1.2, fov_deg=90.0, distortion=BARREL, fps=30.0)
 DRIVE_PATH_FRAMES = 200  # 10 Hz frames of the end-to-end drive: 20 s, 164 m, enough for 100 m sub-paths
-KITTI_SPREAD_POINTS = 0.3  # t_err points: KITTI's camera on that drive read 1.36 / 1.01 / 0.56 % at 5bd2685 / 6be4852 /
+KITTI_SPREAD_POINTS = 0.4  # t_err points: KITTI's camera on that drive read 1.36 / 1.01 / 0.56 % at 5bd2685 / 6be4852 /
 # fb12189 (the road under the car), while the camera pitched 8 degrees down read 0.88 / 0.78 / 0.73 and the one rolled 6
-# degrees 0.91 / 1.24 / 0.84 %: better each time, but 1.31x and 1.50x of KITTI's camera's best draw
+# degrees 0.91 / 1.24 / 0.84 %: better each time, but 1.31x and 1.50x of KITTI's camera's best draw. Over the road
+# plane's RANSAC seeds 0 / 1 / 2 the rolled camera read 0.28 / 0.34 / 0.19 points above KITTI's camera at fb12189 and
+# 0.32 / 0.17 / 0.16 with the blend's own place (docs/results.md); ignoring the roll read 0.87 above
 
 
 @pytest.fixture(scope="module")
