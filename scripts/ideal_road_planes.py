@@ -92,7 +92,8 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=1500, help="the first frames of each drive")
     parser.add_argument("--stretch", type=int, default=50, help="steps per stretch")
     args = parser.parse_args()
-    print("| drive | stretches, along the blend | stretches, under the car | path, along the blend | path, under the car |")
+    print("| drive | stretches, along the blend | stretches, under the car | path, along the blend "
+          "| path, under the car |")
     print("| --- | --- | --- | --- | --- |")
     for path in args.poses:
         T_world_cam = read_kitti_poses(path).T_world_cam[: args.frames]

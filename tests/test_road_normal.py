@@ -124,7 +124,7 @@ def test_after_a_curve_and_a_stretch_without_planes_nothing_of_the_curve_is_carr
     once. A curve carried on over the stretch without planes took it 5 % off."""
     road, heights = RoadNormal(), {}
     places = np.r_[np.arange(0.0, 60.0, 1.0), np.arange(60.0, 68.0, 0.5), np.arange(68.0, 121.0, 1.0)]
-    for key_place, place in zip(places[:-1], places[1:]):
+    for key_place, place in zip(places[:-1], places[1:], strict=True):
         key_centre, key_axes = _camera(radius_m, key_place, 60.0)
         _, axes = _camera(radius_m, place, 60.0)
         R_current_key, step_m = axes.T @ key_axes, place - key_place
