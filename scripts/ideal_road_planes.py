@@ -22,12 +22,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from flowvo.camera import KITTI_CAMERA_HEIGHT_M
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.odometry.road_normal import RoadNormal
 from flowvo.odometry.road_plane import fit_road_plane
 from flowvo.synth.world import World, build_world
 
-HEIGHT_M = 1.65
 FOCAL_PX = 359.0  # the working width's focal length of KITTI's camera
 ROWS_BELOW_HORIZON_PX = np.arange(20.0, 100.0, 4.0)  # the road grid's rows: 30 m to 6 m ahead
 MIN_STEP_M = 0.3
@@ -40,7 +40,7 @@ def road_points_ahead(world: World, T_world_cam: np.ndarray) -> np.ndarray:
     forward[1] = 0.0
     forward /= np.linalg.norm(forward)
     right = np.array([forward[2], 0.0, -forward[0]])
-    depth, share = np.meshgrid(FOCAL_PX * HEIGHT_M / ROWS_BELOW_HORIZON_PX, np.linspace(-1.0, 1.0, 9))
+    depth, share = np.meshgrid(FOCAL_PX * KITTI_CAMERA_HEIGHT_M / ROWS_BELOW_HORIZON_PX, np.linspace(-1.0, 1.0, 9))
     aside = share * np.minimum(depth * 100.0 / FOCAL_PX, 3.5)
     x = (centre[0] + forward[0] * depth + right[0] * aside).ravel()
     z = (centre[2] + forward[2] * depth + right[2] * aside).ravel()
@@ -64,8 +64,9 @@ def length_ratios(T_world_cam: np.ndarray, under_the_car: bool) -> tuple[np.ndar
         plane = fit_road_plane(points, inlier_fraction_of_height=1.0)
         if plane is None:
             continue
-        smoothed = road.smoothed(plane, R_current_key, camera_height_m=HEIGHT_M if under_the_car else None)
-        ratios[i] = HEIGHT_M / smoothed.distance / step_m
+        height_m = KITTI_CAMERA_HEIGHT_M if under_the_car else None
+        smoothed = road.smoothed(plane, R_current_key, camera_height_m=height_m)
+        ratios[i] = KITTI_CAMERA_HEIGHT_M / smoothed.distance / step_m
     return ratios, steps_m
 
 

@@ -30,6 +30,16 @@ def _camera(radius_m: float, place_m: float, curve_ends_m: float = np.inf) -> tu
     return point - HEIGHT_M * down, np.column_stack([np.array([1.0, 0.0, 0.0]), down, forward])
 
 
+def _plane_fitted_ahead(radius_m: float, key_place_m: float, step_m: float, curve_ends_m: float = np.inf) -> RoadPlane:
+    """The plane fitted to the road's points 6-30 m ahead of the camera at ``key_place_m``, 3 m to each side (its
+    frame, units of the ``step_m`` step)."""
+    key_centre, key_axes = _camera(radius_m, key_place_m, curve_ends_m)
+    ahead = [_frame(radius_m, key_place_m + d, curve_ends_m)[0] for d in np.linspace(6.0, 30.0, 25)]
+    points = np.array([key_axes.T @ (point + np.array([x, 0.0, 0.0]) - key_centre)
+                       for point in ahead for x in np.linspace(-3.0, 3.0, 7)]) / step_m
+    return fit_road_plane(points, inlier_fraction_of_height=1.0)
+
+
 def _drive(road: RoadNormal, radius_m: float, steps: int, height_known: bool) -> list[float]:
     """Drive ``steps`` steps of ``STEP_M`` along the curve, each measuring the tangent plane ``CENTRE_AHEAD_M`` ahead in
     its previous frame (a one-step span, one unit long); each step's camera height as the road gives it (metres)."""
@@ -102,15 +112,12 @@ def test_planes_fitted_to_a_curved_road_give_the_height_under_the_car(radius_m):
     blend, road = RoadNormal(), RoadNormal()
     heights, blended = [], []
     for step in range(1, 121):
-        key_centre, key_axes = _camera(radius_m, (step - 1) * STEP_M)
+        _, key_axes = _camera(radius_m, (step - 1) * STEP_M)
         _, axes = _camera(radius_m, step * STEP_M)
         R_current_key = axes.T @ key_axes
         road.advance(R_current_key, 0.1, STEP_M)
         blend.advance(R_current_key, 0.1, STEP_M)
-        ahead = [_frame(radius_m, (step - 1) * STEP_M + d)[0] for d in np.linspace(6.0, 30.0, 25)]
-        points = np.array([key_axes.T @ (point + np.array([x, 0.0, 0.0]) - key_centre)
-                           for point in ahead for x in np.linspace(-3.0, 3.0, 7)]) / STEP_M
-        plane = fit_road_plane(points, inlier_fraction_of_height=1.0)
+        plane = _plane_fitted_ahead(radius_m, (step - 1) * STEP_M, STEP_M)
         heights.append(road.smoothed(plane, R_current_key, camera_height_m=HEIGHT_M).distance * STEP_M)
         blended.append(blend.smoothed(plane, R_current_key).distance * STEP_M)
     assert (blended[-1] - HEIGHT_M) * np.sign(radius_m) > 0.01 * HEIGHT_M
@@ -125,16 +132,13 @@ def test_after_a_curve_and_a_stretch_without_planes_nothing_of_the_curve_is_carr
     road, heights = RoadNormal(), {}
     places = np.r_[np.arange(0.0, 60.0, 1.0), np.arange(60.0, 68.0, 0.5), np.arange(68.0, 121.0, 1.0)]
     for key_place, place in zip(places[:-1], places[1:], strict=True):
-        key_centre, key_axes = _camera(radius_m, key_place, 60.0)
+        _, key_axes = _camera(radius_m, key_place, 60.0)
         _, axes = _camera(radius_m, place, 60.0)
         R_current_key, step_m = axes.T @ key_axes, place - key_place
         road.advance(R_current_key, 0.1, step_m)
         if 60.0 <= key_place < 68.0:
             continue
-        ahead = [_frame(radius_m, key_place + d, 60.0)[0] for d in np.linspace(6.0, 30.0, 25)]
-        points = np.array([key_axes.T @ (point + np.array([x, 0.0, 0.0]) - key_centre)
-                           for point in ahead for x in np.linspace(-3.0, 3.0, 7)]) / step_m
-        plane = fit_road_plane(points, inlier_fraction_of_height=1.0)
+        plane = _plane_fitted_ahead(radius_m, key_place, step_m, 60.0)
         heights[key_place] = road.smoothed(plane, R_current_key, camera_height_m=HEIGHT_M).distance * step_m
     assert heights[68.0] == pytest.approx(HEIGHT_M, rel=0.01)
     np.testing.assert_allclose([heights[p] for p in np.arange(80.0, 120.0)], HEIGHT_M, rtol=1e-3)

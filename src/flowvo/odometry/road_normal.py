@@ -111,9 +111,12 @@ class RoadNormal:
         if under is None or place_m <= key_place_m:
             return ahead
         under = R_current_plane.T @ under
-        behind_m = max(min(key_place_m, place_m - slope_depth * metres_per_unit), self._ahead_places_m[0])  # the
-        # curve's other end: under the car, or a fit's slope distance behind the blend's place where that is farther
-        behind = R_current_plane.T @ self._normal_at(behind_m, clamp=True)
+        behind_m = min(key_place_m, place_m - slope_depth * metres_per_unit)  # the curve's other end: under the car,
+        # or a fit's slope distance behind the blend's place where that is farther (the first kept one at most)
+        behind = self._normal_at(behind_m)
+        if behind is None:
+            behind_m, behind = self._ahead_places_m[0], self._ahead_normals[0]
+        behind = R_current_plane.T @ behind
         turn = math.radians(mounting_of_road_normal(normal)[0] - mounting_of_road_normal(behind)[0])  # the road's, over
         # that stretch: how far the normal leans toward the forward axis, as a camera's pitch
         curve = turn / ((place_m - behind_m) / metres_per_unit)  # radians per unit of the span
@@ -123,14 +126,11 @@ class RoadNormal:
         # the camera, and the curve's rise over the centre's points
         return RoadPlane(distance, chord, plane.inlier_fraction, plane.centre)
 
-    def _normal_at(self, place_m: float, clamp: bool = False) -> np.ndarray | None:
+    def _normal_at(self, place_m: float) -> np.ndarray | None:
         """The normal of the road measured at ``place_m`` along the drive (current frame, unit; interpolated between
-        the two places around it), or None where no kept place lies on each side of it (``clamp``: the first kept
-        normal where ``place_m`` lies before it)."""
+        the two places around it), or None where no kept place lies on each side of it."""
         places = self._ahead_places_m
         after = int(np.searchsorted(places, place_m))
-        if clamp and after == 0 and len(places):
-            return self._ahead_normals[0]
         if after == 0 or after == len(places):
             return None
         low, high = places[after - 1], places[after]
