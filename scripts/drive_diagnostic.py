@@ -1,11 +1,13 @@
 """Print where a run's error comes from, for any drive with ground truth (markdown tables).
 
 The error split: the KITTI metric (t_err %, r_err deg/m) of the run as it is, of its rotations and directions
-of travel with the true step lengths, of the true rotations and directions with its step lengths, and of its
-step lengths all divided by its whole path ratio (its lengths' overall bias removed), each with its path length
-over the true one. Then, per stretch of ``--stretch`` frames and per ``--stretch-m`` metres of true path, the
-estimated path over the true one beside the stretch's true length, mean speed (m/s) and heading change
-(degrees, positive to the right). The maths: :mod:`flowvo.metrics.error_split`.
+of travel with the true step lengths, of the true rotations and directions with its step lengths, of its step
+lengths all divided by its whole path ratio (its lengths' overall bias removed), and of the run and of its rotations
+and directions with the true lengths once their median direction offset against the truth is turned back, each with
+its path length over the true one; then that offset (azimuth and elevation, degrees). Then, per stretch of
+``--stretch`` frames and per ``--stretch-m`` metres of true path, the estimated path over the true one beside the
+stretch's true length, mean speed (m/s) and heading change (degrees, positive to the right).
+The maths: :mod:`flowvo.metrics.error_split`.
 
 Usage: python scripts/drive_diagnostic.py GT.txt PRED.txt [--times times.txt] [--stretch 50] [--stretch-m 100]
            [--lengths 100 200 ...]
@@ -25,12 +27,23 @@ import numpy as np
 from flowvo.errors import FlowvoError
 from flowvo.io.text_numbers import parse_float
 from flowvo.kitti.poses import read_kitti_poses
-from flowvo.metrics.error_split import Stretch, distance_bounds, error_split, frame_bounds, kitti_errors, stretches
+from flowvo.metrics.error_split import (
+    MIN_DIRECTION_STEP_M,
+    Stretch,
+    direction_offset,
+    distance_bounds,
+    error_split,
+    frame_bounds,
+    kitti_errors,
+    stretches,
+)
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
 
 SPLIT_ROWS = {"run": "the run", "true_lengths": "its rotations and directions, true step lengths",
               "true_rotations": "true rotations and directions, its step lengths",
-              "one_factor": "its step lengths / its path ratio (one factor)"}
+              "one_factor": "its step lengths / its path ratio (one factor)",
+              "offset_removed": "the run, its direction offset removed",
+              "true_lengths_offset_removed": "its rotations and directions, offset removed, true step lengths"}
 
 
 def read_times(path: Path, n_frames: int) -> np.ndarray:
@@ -90,7 +103,12 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
         row = split[name]
         lines.append(f"| {label} | {row['t_err_percent']:.2f} | {row['r_err_deg_per_m']:.4f} | {row['segments']} "
                      f"| {row['path_ratio']:.4f} |")
-    lines.append("")
+    offset = direction_offset(T_gt, T_pred)
+    lines += ["", f"**Direction offset** (the run's direction of travel against the truth's, medians over "
+              f"{offset.steps} steps of {MIN_DIRECTION_STEP_M:g} m or more, camera frame): azimuth "
+              f"{offset.azimuth_deg:+.3f} deg (positive right), elevation {offset.elevation_deg:+.3f} deg (positive "
+              "up). A constant offset is also what a truth given in a camera frame turned against the images' own puts "
+              "on every step.", ""]
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),
                                                                                                stretch_frames),
                                                                      times_s))

@@ -6,11 +6,14 @@ import pytest
 
 from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp
 from flowvo.metrics.error_split import (
+    direction_offset,
     distance_bounds,
     error_split,
     frame_bounds,
     path_ratio,
     stretches,
+    turn_rotation,
+    with_direction_turned,
     with_true_lengths,
     with_true_rotations,
 )
@@ -142,3 +145,47 @@ def test_the_true_rotations_keep_a_truth_orthonormal_only_to_4e_7_exactly():
     split = error_split(truth, run, (100.0,))
     assert split["true_rotations"]["r_err_deg_per_m"] == 0.0
     np.testing.assert_array_equal(with_true_rotations(truth, run)[:, :3, :3], truth[:, :3, :3])
+
+
+def test_the_turn_takes_the_forward_axis_right_by_the_azimuth_and_up_by_the_elevation():
+    np.testing.assert_allclose(turn_rotation(90.0, 0.0) @ [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(turn_rotation(0.0, 90.0) @ [0.0, 0.0, 1.0], [0.0, -1.0, 0.0], atol=1e-15)  # y is down
+    np.testing.assert_allclose(turn_rotation(30.0, 20.0) @ [0.0, 0.0, 1.0],
+                               [np.cos(np.radians(20)) * np.sin(np.radians(30)), -np.sin(np.radians(20)),
+                                np.cos(np.radians(20)) * np.cos(np.radians(30))], atol=1e-15)
+
+
+def test_every_step_turned_alike_reads_as_the_offset_and_scores_nothing_once_it_is_removed():
+    """A straight drive whose every step is turned 0.3 degrees right and 0.2 down in its camera frame: the offset
+    reads exactly that; the run misses each devkit segment's end by the chord of the turn, |C z - z| of the L + 1
+    m it spans (as in the 2 % long test), and once the offset is turned back nothing is left."""
+    turn = turn_rotation(0.3, -0.2)
+    run = with_direction_turned(STRAIGHT, turn)
+    np.testing.assert_allclose(run[:, :3, :3], STRAIGHT[:, :3, :3], atol=0)
+    offset = direction_offset(STRAIGHT, run)
+    assert (offset.azimuth_deg, offset.elevation_deg, offset.steps) == (pytest.approx(0.3, abs=1e-9),
+                                                                        pytest.approx(-0.2, abs=1e-9), 120)
+    np.testing.assert_allclose(with_direction_turned(run, offset.turn().T), STRAIGHT, atol=1e-9)
+    split = error_split(STRAIGHT, run, LENGTHS_M)
+    chord = float(np.linalg.norm(turn @ [0.0, 0.0, 1.0] - [0.0, 0.0, 1.0]))
+    assert split["run"]["t_err_percent"] == pytest.approx(100 * chord * (10 * 21 / 20 + 7 * 51 / 50) / 17, rel=1e-6)
+    assert split["offset_removed"]["t_err_percent"] < 1e-9
+    assert split["true_lengths_offset_removed"]["t_err_percent"] < 1e-9
+    assert split["true_lengths"]["t_err_percent"] == pytest.approx(split["run"]["t_err_percent"], rel=1e-9)
+
+
+def test_a_sideways_offset_through_bends_is_read_exactly_and_slow_steps_are_left_out():
+    """Through gentle bends (chords off the forward axis) a pure sideways turn of every step adds its azimuth
+    exactly; the offset is a median, so a few steps of noise do not move it, and steps under 0.3 m are not read."""
+    step_m = np.r_[np.full(20, 0.1), np.full(180, 0.8)]
+    truth = drive(step_m, 0.01 * np.sin(np.arange(200) / 15.0))
+    steps = np.diff(with_direction_turned(truth, turn_rotation(-0.4, 0.0))[:, :3, 3], axis=0)
+    steps[150:160] = np.diff(with_direction_turned(truth, turn_rotation(5.0, 0.0))[:, :3, 3], axis=0)[150:160]
+    run = truth.copy()
+    run[1:, :3, 3] = np.cumsum(steps, axis=0)  # ten steps 5 degrees right among 170 at 0.4 degrees left
+    offset = direction_offset(truth, run)
+    assert offset.steps == 180
+    assert offset.azimuth_deg == pytest.approx(-0.4, abs=1e-9)
+    assert offset.elevation_deg == pytest.approx(0.0, abs=1e-9)
+    standing = np.tile(np.eye(4), (5, 1, 1))
+    assert direction_offset(standing, standing).steps == 0

@@ -11,6 +11,11 @@ seconds (KITTI's 0.1 s a frame where none are given).
 The split: the run's rotations and directions of travel with the true step lengths (what its rotations cost),
 and the true rotations and directions with the run's step lengths (what its lengths cost). A path whose lengths
 are all 2 % long has path ratio 1.02 in every stretch and no error left with the true lengths.
+
+The direction offset: the run's direction of travel against the truth's, each step's in the camera frame of its
+start (azimuth positive to the right, elevation positive up, degrees), the medians over the steps. A constant offset
+is what a truth given in a camera frame turned against the images' own (a GNSS/INS boresight, an IMU-to-camera
+calibration, a principal point off) puts on every step; the split also scores the run with it removed.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.geometry import wrap_angle_rad, yaw_rad
+from flowvo.geometry import relative_motions, wrap_angle_rad, yaw_rad
 from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M, sequence_segment_errors, summarize
 from flowvo.trajectory import Trajectory
 
@@ -41,6 +46,64 @@ class Stretch:
     def path_ratio(self) -> float:
         """The estimated path length over the true one (NaN where the truth stood still throughout)."""
         return self.estimated_length_m / self.true_length_m if self.true_length_m > 0 else float("nan")
+
+
+MIN_DIRECTION_STEP_M = 0.3  # shorter steps (of the run or the truth) give no direction: a real truth's direction of a
+# step of a few centimetres is its own noise
+
+
+@dataclass(frozen=True)
+class DirectionOffset:
+    """The run's direction of travel against the truth's (module docstring): medians over ``steps`` steps of the
+    azimuth (degrees, positive to the right) and elevation (degrees, positive up) differences."""
+
+    azimuth_deg: float
+    elevation_deg: float
+    steps: int
+
+    def turn(self) -> np.ndarray:
+        """The rotation (3, 3, camera frame) that takes the forward axis to this azimuth and elevation: raised about
+        the x axis, then turned about the y axis."""
+        return turn_rotation(self.azimuth_deg, self.elevation_deg)
+
+
+def turn_rotation(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    """``R_y(azimuth) R_x(elevation)`` (3, 3): the camera's forward axis (0, 0, 1) turned to the given azimuth
+    (positive to the right, towards +x) and elevation (positive up, towards -y), degrees."""
+    a, e = np.radians(azimuth_deg), np.radians(elevation_deg)
+    turn_y = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
+    raise_x = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(e), -np.sin(e)], [0.0, np.sin(e), np.cos(e)]])
+    return turn_y @ raise_x
+
+
+def _azimuth_elevation_rad(directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Azimuth (towards +x) and elevation (towards -y), radians, of camera-frame vectors (N, 3)."""
+    x, y, z = directions.T
+    return np.arctan2(x, z), np.arctan2(-y, np.hypot(x, z))
+
+
+def direction_offset(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = MIN_DIRECTION_STEP_M
+                     ) -> DirectionOffset:
+    """The run's direction of travel against the truth's over the steps where both moved at least ``min_step_m``
+    (NaN where none did)."""
+    _check_pair(T_gt, T_pred)
+    true_steps, run_steps = relative_motions(T_gt)[:, :3, 3], relative_motions(T_pred)[:, :3, 3]
+    moving = (np.linalg.norm(true_steps, axis=1) >= min_step_m) & (np.linalg.norm(run_steps, axis=1) >= min_step_m)
+    if not moving.any():
+        return DirectionOffset(float("nan"), float("nan"), 0)
+    (true_azimuth, true_elevation), (run_azimuth, run_elevation) = (
+        _azimuth_elevation_rad(true_steps[moving]), _azimuth_elevation_rad(run_steps[moving]))
+    return DirectionOffset(float(np.degrees(np.median(wrap_angle_rad(run_azimuth - true_azimuth)))),
+                           float(np.degrees(np.median(run_elevation - true_elevation))), int(moving.sum()))
+
+
+def with_direction_turned(T_pred: np.ndarray, turn: np.ndarray) -> np.ndarray:
+    """The run (N, 4, 4) with each step's direction of travel turned by ``turn`` (3, 3) in the camera frame of the
+    step's start, its orientations and step lengths its own, from its first pose."""
+    R_world_cam = T_pred[:-1, :3, :3]
+    steps_cam = np.einsum("nji,nj->ni", R_world_cam, np.diff(T_pred[:, :3, 3], axis=0))
+    turned_world = np.einsum("nij,nj->ni", R_world_cam, steps_cam @ turn.T)
+    return _chained(T_pred, turned_world, np.ones(len(T_pred) - 1))  # the turned steps whole, each taken once
 
 
 def _check_pair(T_gt: np.ndarray, T_pred: np.ndarray) -> None:
@@ -162,12 +225,17 @@ def error_split(T_gt: np.ndarray, T_pred: np.ndarray, lengths_m: tuple[float, ..
                 ) -> dict[str, dict]:
     """The KITTI metric (``t_err_percent``, ``r_err_deg_per_m``, ``segments``) and the path ratio of: the run
     (``run``), its rotations and directions with the true step lengths (``true_lengths``), the true rotations
-    and directions with its step lengths (``true_rotations``), and its lengths all divided by its whole path
-    ratio (``one_factor``: what is left once the lengths' overall bias is removed)."""
+    and directions with its step lengths (``true_rotations``), its lengths all divided by its whole path
+    ratio (``one_factor``: what is left once the lengths' overall bias is removed), and the run and its
+    ``true_lengths`` variant with their :func:`direction_offset` turned back (``offset_removed``,
+    ``true_lengths_offset_removed``: what is left once a constant offset of the directions is removed)."""
     ratio = path_ratio(T_gt, T_pred)
+    offset = direction_offset(T_gt, T_pred)
+    unturned = T_pred if offset.steps == 0 else with_direction_turned(T_pred, offset.turn().T)
     variants = {"run": T_pred, "true_lengths": with_true_lengths(T_gt, T_pred),
                 "true_rotations": with_true_rotations(T_gt, T_pred),
-                "one_factor": with_lengths_scaled(T_pred, 1.0 / ratio)}
+                "one_factor": with_lengths_scaled(T_pred, 1.0 / ratio),
+                "offset_removed": unturned, "true_lengths_offset_removed": with_true_lengths(T_gt, unturned)}
     split = {}
     for name, poses in variants.items():
         metric = kitti_errors(T_gt, poses, lengths_m)
