@@ -3,12 +3,12 @@ profile with perfect measurements (a markdown table).
 
 For each pose file, the synthetic renderer's road is built along the drive (:func:`flowvo.synth.world.build_world`:
 the road follows the path's heights, the camera rides 1.65 m above it) and each step fits a plane to the road's
-points straight ahead of the previous frame's camera, 6-30 m out on rows evenly spaced in the image (KITTI's
-camera; ``--nearest-m``: from farther out, as a camera pitched up or over a bonnet sees it), scaled by the true step. The road's normal is carried by the true rotations and the step's length is the
-camera height over the plane's distance, taken along the blend and under the car. No flow, no noise, no RANSAC:
-what is left is the model's own error on that road (its grade changes, the car's pitching). Steps under 0.3 m fit
-no plane. Columns: the root mean square of the path over the true one per stretch of ``--stretch`` steps (%), and
-the whole path's (%).
+points straight ahead of the previous frame's camera, 6-30 m out on rows evenly spaced in the image (KITTI's camera;
+``--nearest-m``: from farther out, as a camera pitched up or over a bonnet sees it), scaled by the true step. The
+road's normal is carried by the true rotations and the step's length is the camera height over the plane's distance,
+taken along the blend and under the car. No flow, no noise, no RANSAC: what is left is the model's own error on that
+road (its grade changes, the car's pitching). Steps under 0.3 m fit no plane. Columns: the root mean square of the
+path over the true one per stretch of ``--stretch`` steps (%), and the whole path's (%).
 
 Usage: python scripts/ideal_road_planes.py POSES.txt [POSES.txt ...] [--frames 1500] [--stretch 50] [--nearest-m M]
 (KITTI pose files, e.g. the ground truth ``poses/00.txt`` .. ``10.txt``; 0.1 s a frame.)

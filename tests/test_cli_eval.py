@@ -1,7 +1,12 @@
 import json
 
+import numpy as np
+import pytest
+
 from flowvo.cli import build_parser, main
 from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning
+from flowvo.geometry import chain_planar
+from flowvo.metrics.error_split import turn_rotation, with_direction_turned
 
 
 def test_every_subcommand_has_help(capsys):
@@ -30,6 +35,26 @@ def test_eval_writes_metrics_and_plots(kitti_poses_dir, example_results_dir, tmp
     for png in ("path_xz.png", "t_err_vs_length.png", "r_err_vs_speed.png", "frame_error_histograms.png"):
         assert (tmp_path / png).read_bytes()[:4] == b"\x89PNG"
     assert not list(tmp_path.glob(".*tmp"))
+
+
+def test_eval_reads_a_constant_turn_of_every_step_as_the_direction_offset(tmp_path, capsys):
+    """A prediction whose every step is the truth's turned 0.3 degrees right and 0.2 down in its camera frame (a
+    truth given in a camera frame turned against the images'): eval prints and records that offset, also over a
+    prediction of every second frame only (its steps the sums of two turned steps)."""
+    truth = chain_planar(np.c_[np.full(80, 1.0), np.zeros(80)])  # 80 m straight ahead
+    turned = with_direction_turned(truth, turn_rotation(0.3, -0.2))
+    np.savetxt(tmp_path / "gt.txt", truth[:, :3].reshape(-1, 12))
+    np.savetxt(tmp_path / "pred.txt", turned[:, :3].reshape(-1, 12))
+    every_second = np.c_[np.arange(0, 81, 2), turned[::2, :3].reshape(-1, 12)]
+    np.savetxt(tmp_path / "half.txt", every_second, fmt=["%d"] + ["%.12e"] * 12)
+    for pred, steps in (("pred.txt", 80), ("half.txt", 40)):
+        out = tmp_path / pred.replace(".txt", "_eval")
+        assert main(["eval", "--gt", str(tmp_path / "gt.txt"), "--pred", str(tmp_path / pred), "--lengths", "20",
+                     "--out", str(out)]) == 0
+        assert f"azimuth +0.300 deg (right +), elevation -0.200 deg (up +), {steps} steps" in capsys.readouterr().out
+        offset = json.loads((out / "metrics.json").read_text())["direction_offset_deg"]
+        assert offset == {"azimuth_right": pytest.approx(0.3, abs=1e-9), "elevation_up": pytest.approx(-0.2, abs=1e-9),
+                          "steps": steps, "min_step_m": 0.3}
 
 
 def test_bad_pose_file_gives_one_line_error_and_exit_2(tmp_path, capsys):

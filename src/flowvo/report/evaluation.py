@@ -11,6 +11,7 @@ from flowvo.errors import FlowvoError
 from flowvo.io.atomic import atomic_open, write_json_atomic
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics import kitti_odometry as kitti
+from flowvo.metrics.error_split import MIN_DIRECTION_STEP_M, direction_offset
 from flowvo.metrics.trajectory_errors import ate_rmse_m, per_frame_errors, rpe
 from flowvo.trajectory import Trajectory
 
@@ -68,7 +69,22 @@ def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none",
     metrics["frames_gt"] = len(gt)
     metrics["frames_predicted"] = int(np.isin(pred.frame_ids, gt.frame_ids).sum())
     metrics["path_length_m"] = float(kitti.trajectory_distances(gt.positions)[-1])
+    metrics["direction_offset_deg"] = direction_offset_record(gt, pred)
     return Evaluation(metrics, gt, pred, segments, per_frame_errors(gt, pred))
+
+
+def direction_offset_record(gt: Trajectory, pred: Trajectory) -> dict:
+    """The prediction's direction of travel against the truth's over the frames both hold
+    (:func:`flowvo.metrics.error_split.direction_offset`: medians over the steps between consecutive shared frames
+    of :data:`MIN_DIRECTION_STEP_M` or more), degrees, JSON-ready (None where no step counts): a constant offset is
+    what a truth given in a camera frame turned against the images' own puts on every step."""
+    shared = np.intersect1d(gt.frame_ids, pred.frame_ids)
+    offset = direction_offset(gt.T_world_cam[np.searchsorted(gt.frame_ids, shared)],
+                              pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)])
+    counted = offset.steps > 0
+    return {"azimuth_right": offset.azimuth_deg if counted else None,
+            "elevation_up": offset.elevation_deg if counted else None, "steps": offset.steps,
+            "min_step_m": MIN_DIRECTION_STEP_M}
 
 
 def format_lengths(lengths_m: tuple[float, ...]) -> str:
@@ -120,6 +136,10 @@ def format_table(metrics: dict) -> str:
         ("RPE trans RMSE (1 frame)", f"{metrics['rpe_trans_rmse_m']:.4f} m"),
         ("RPE rot RMSE (1 frame)", f"{metrics['rpe_rot_rmse_deg']:.4f} deg"),
     ]
+    offset = metrics.get("direction_offset_deg")
+    if offset and offset["steps"]:
+        rows.append(("direction offset", f"azimuth {offset['azimuth_right']:+.3f} deg (right +), elevation "
+                                         f"{offset['elevation_up']:+.3f} deg (up +), {offset['steps']} steps"))
     if metrics["frames_predicted"] < metrics["frames_gt"]:
         rows.append(("frames", f"{metrics['frames_predicted']} of the ground truth's {metrics['frames_gt']} "
                                "predicted (only those scored)"))
