@@ -103,7 +103,10 @@ def with_direction_turned(T_pred: np.ndarray, turn: np.ndarray) -> np.ndarray:
     R_world_cam = T_pred[:-1, :3, :3]
     steps_cam = np.einsum("nji,nj->ni", R_world_cam, np.diff(T_pred[:, :3, 3], axis=0))
     turned_world = np.einsum("nij,nj->ni", R_world_cam, steps_cam @ turn.T)
-    return _chained(T_pred, turned_world, np.ones(len(T_pred) - 1))  # the turned steps whole, each taken once
+    lengths_m = step_lengths_m(T_pred)
+    directions = np.divide(turned_world, lengths_m[:, None], out=np.zeros_like(turned_world),
+                           where=lengths_m[:, None] > 0)
+    return _chained(T_pred, directions, lengths_m)
 
 
 def _check_pair(T_gt: np.ndarray, T_pred: np.ndarray) -> None:
