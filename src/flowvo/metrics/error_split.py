@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.geometry import relative_motions, wrap_angle_rad, yaw_rad
+from flowvo.geometry import relative_motions, so3_exp, wrap_angle_rad, yaw_rad
 from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M, sequence_segment_errors, summarize
 from flowvo.trajectory import Trajectory
 
@@ -70,9 +70,8 @@ class DirectionOffset:
 def turn_rotation(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
     """``R_y(azimuth) R_x(elevation)`` (3, 3): the camera's forward axis (0, 0, 1) turned to the given azimuth
     (positive to the right, towards +x) and elevation (positive up, towards -y), degrees."""
-    a, e = np.radians(azimuth_deg), np.radians(elevation_deg)
-    turn_y = np.array([[np.cos(a), 0.0, np.sin(a)], [0.0, 1.0, 0.0], [-np.sin(a), 0.0, np.cos(a)]])
-    raise_x = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(e), -np.sin(e)], [0.0, np.sin(e), np.cos(e)]])
+    turn_y = so3_exp(np.array([0.0, np.radians(azimuth_deg), 0.0]))  # about the down axis: forward turns right
+    raise_x = so3_exp(np.array([np.radians(elevation_deg), 0.0, 0.0]))  # about the right axis: forward turns up
     return turn_y @ raise_x
 
 
