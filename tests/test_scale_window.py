@@ -393,3 +393,44 @@ def test_steps_nothing_ever_measures_are_given_out_after_the_hold_labelled_unmea
     assert first_final == 31  # the first pending step ended at 0.1 s, held until 3.1 s
     assert {record.measured_by for record in window.records} == {"none"}
     assert all(record.length_m == 0.0 and record.log_sigma is None for record in window.records)
+
+
+def test_a_mounting_in_doubt_holds_the_steps_and_a_mounting_taken_forgets_the_roads_before_it():
+    """A camera whose mounting the drive finds for itself (rolled, not told): its first road, trusted through the
+    wrong mounting, reads 0.5 m; the next planes are refused (the mounting in doubt) while the ratios measure a
+    steady 1.0 m; then the drive takes its mounting and every road reads 1.0 m. Nothing is final while the mounting
+    is in doubt, and every step comes out 1.0 m: the first road is forgotten, not averaged in."""
+    R, t, _ = step(0.0, 1.0)
+
+    def run(mounting_known):
+        window = ScaleWindow(latency_frames=2)
+        emitted = []
+        for k in range(1, 31):
+            pending, taken = 3 <= k < 15, k == 15
+            road = 0.5 if k == 2 else 1.0 if k >= 15 else None
+            scale = StepScale(R, t, 0.0, 0.1, road_m=road, ratio=1.0 if k > 2 else None,
+                              mounting_pending=pending and mounting_known, mounting_taken=taken and mounting_known)
+            final = window.push(k * 0.1, scale)
+            if mounting_known and 3 <= k < 15:
+                assert not final  # held while the mounting is in doubt
+            emitted += final
+        return np.array([np.linalg.norm(motion[:3, 3]) for _, motion in emitted + window.flush()])
+
+    np.testing.assert_allclose(run(mounting_known=True)[1:], 1.0, rtol=1e-6)
+    assert run(mounting_known=False)[1:13].max() < 0.9  # without the flags the wrong first road scales them
+
+
+def test_a_mounting_in_doubt_that_the_drive_keeps_holds_the_steps_but_keeps_the_roads():
+    """Planes refused for a while on a camera mounted as told (a banked ramp): the steps are held while the
+    mounting is in doubt, then measured by the roads before and after alike, since no mounting was taken."""
+    R, t, _ = step(0.0, 1.0)
+    window = ScaleWindow(latency_frames=2)
+    emitted = []
+    for k in range(1, 31):
+        road = 0.8 if k < 8 or k >= 14 else None
+        final = window.push(k * 0.1, StepScale(R, t, 0.0, 0.1, road_m=road, ratio=1.0 if k > 1 else None,
+                                               mounting_pending=8 <= k < 14))
+        if 8 <= k < 14:
+            assert not final
+        emitted += final
+    np.testing.assert_allclose([np.linalg.norm(m[:3, 3]) for _, m in emitted + window.flush()], 0.8, rtol=1e-6)

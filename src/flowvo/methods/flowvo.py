@@ -243,7 +243,8 @@ class FlowGeometryStep(WorkingFrames):
         # the last speed: where along the drive the road measured ahead lies under the car (its own length comes later)
         taken = len(self.road_length.pitches_taken_deg)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
-        if len(self.road_length.pitches_taken_deg) > taken:  # the drive's mounting: the car's axes turn with it, and
+        mounting_taken = len(self.road_length.pitches_taken_deg) > taken
+        if mounting_taken:  # the drive's mounting: the car's axes turn with it, and
             # a camera found to look up, or rolled, has its road crop and grid moved below its horizon
             self.checks.turn_car_axes(self.road_length.levelling.T)
             self.road.place(self.road_length.pitch_deg, self.road_length.roll_deg, MIN_FLOW_SIDE_PX)
@@ -268,7 +269,7 @@ class FlowGeometryStep(WorkingFrames):
         self.road_key.slide(flow.current, time_s, se3_next_prev(fit.R, fit.t_dir * slide_m),
                             self.road_length.normal.normal, near_px)
         if self.window is not None:
-            self._record_step(times_s, span, fit, step_m, road_m, network_m, last_step, flow)
+            self._record_step(times_s, span, fit, (step_m, road_m, network_m), last_step, flow, mounting_taken)
         return motion_in_metres(self.last_motion, self.metres_per_unit)
 
     @staticmethod
@@ -321,13 +322,17 @@ class FlowGeometryStep(WorkingFrames):
         return None
 
     def _record_step(self, times_s: tuple[float, float], span: RoadSpan[GeometryFrame], fit: EssentialMotion,
-                     step_m: float, road_m: float | None, network_m: float | None,
-                     last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None, flow: GeometryFlow) -> None:
-        """What the window needs of the step (:class:`StepScale`): its motion, the road's metres since the key
-        frame, the network's, and the ratio to the last step's length."""
+                     lengths_m: tuple[float, float | None, float | None],
+                     last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None, flow: GeometryFlow,
+                     mounting_taken: bool) -> None:
+        """What the window needs of the step (:class:`StepScale`): its motion, its per-pair length, the road's
+        metres since the key frame and the network's (``lengths_m``), the ratio to the last step's length, and where
+        the drive's mounting stands (in doubt; ``mounting_taken`` at this step)."""
         ratio = None if last_step is None else self._length_ratio(last_step, flow.current, fit)
-        self._step_scale = StepScale(fit.R, fit.t_dir, step_m, times_s[1] - times_s[0], road_m, network_m,
-                                     *((None, 0.0) if ratio is None else ratio), road_steps=span.steps)
+        self._step_scale = StepScale(fit.R, fit.t_dir, lengths_m[0], times_s[1] - times_s[0], *lengths_m[1:],
+                                     *((None, 0.0) if ratio is None else ratio), road_steps=span.steps,
+                                     mounting_pending=self.road_length.tally.mounting_pending(),
+                                     mounting_taken=mounting_taken)
         self._last_step = fit, flow.motion_prev, flow.motion_next
 
     def _keep_landmarks(self, previous_s: float, previous: GeometryFrame, time_s: float,

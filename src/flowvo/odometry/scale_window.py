@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import NamedTuple
 
@@ -67,8 +67,8 @@ UNDETERMINED_WEIGHT = 1e-9  # 1/log^2: holds a step no measurement reaches at 0 
 UNSCALED_LOG_SIGMA = 0.5  # log: a moving step known less surely than this has only the held speed behind it
 # (the network's distance alone: 0.4)
 MAX_UNMEASURED_HOLD_S = 3.0  # a window that no road, network or carried prior has measured yet (a drive that starts
-# fast, before its first trusted road) holds its steps this long for one, so that they get lengths through their
-# ratios instead of the held speed (none yet: 0 m)
+# fast, before its first trusted road; a camera whose mounting the drive's planes put in doubt) holds its steps this
+# long for one, so that they get lengths through their ratios instead of the held speed (none yet: 0 m)
 CONVERGED_LOG = 1e-4  # Cauchy stops once no log length moves more (0.01 % of a step: far below any noise;
 # 1e-6 took 40 % more iterations for the same clip results to four digits)
 
@@ -80,7 +80,10 @@ class StepScale:
     length: ``road_m``, ``network_m`` (metres) and ``ratio`` (to the previous step's length, with the
     standard error ``ratio_log_sigma`` of its log), each None where nothing did; ``dt_s`` the time since the
     previous frame. ``road_m`` is the road's length of the last ``road_steps`` steps, this one the last: a
-    road measured from a key frame several steps back (at low speed) measures their sum."""
+    road measured from a key frame several steps back (at low speed) measures their sum. ``mounting_pending``: the
+    road planes so far put the camera's mounting in doubt (``RoadPlaneTally.mounting_pending``); ``mounting_taken``:
+    this step took the camera's mounting from the drive, so the roads measured before it went through the wrong
+    one."""
 
     R: np.ndarray
     t_dir: np.ndarray
@@ -91,6 +94,8 @@ class StepScale:
     ratio: float | None = None
     ratio_log_sigma: float = 0.0
     road_steps: int = 1
+    mounting_pending: bool = False
+    mounting_taken: bool = False
 
     @cached_property
     def turn_deg(self) -> float:
@@ -272,12 +277,24 @@ class ScaleWindow:
         self._steps.append((time_s, step))
         self._pending += 1
         self._measured = self._measured or self._prior is not None or _usable(step.road_m) or _usable(step.network_m)
+        if step.mounting_taken:
+            self._forget_roads()
+        if step.mounting_pending or step.mounting_taken:  # held for a road measured through the drive's mounting
+            self._measured = False
         if self._pending <= self.latency_frames:
             return []
         first_pending_s = self._steps[len(self._steps) - self._pending][0]
         if not self._measured and time_s - first_pending_s < MAX_UNMEASURED_HOLD_S:
             return []  # held until something measures the scale (see MAX_UNMEASURED_HOLD_S)
         return self._emit(self._pending - self.latency_frames)
+
+    def _forget_roads(self) -> None:
+        """The road lengths of the window's steps, and the prior carried from those that left it, were measured
+        through a camera mounting the drive has just replaced (a camera rolled 6 degrees and not told: its first
+        plane, trusted by chance, read its step 25 % long, and the window chained the next 15 steps from it at
+        half their length): forgotten, so that the roads measured through the new one scale those steps."""
+        self._steps = deque((time_s, replace(step, road_m=None)) for time_s, step in self._steps)
+        self._prior = None
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
         """Every pending motion, final now; the window starts anew."""
