@@ -434,3 +434,14 @@ def test_a_mounting_in_doubt_that_the_drive_keeps_holds_the_steps_but_keeps_the_
             assert not final
         emitted += final
     np.testing.assert_allclose([np.linalg.norm(m[:3, 3]) for _, m in emitted + window.flush()], 0.8, rtol=1e-6)
+
+
+def test_without_latency_nothing_is_held():
+    """``--latency 0`` gives every pose at once, as its help says: neither an unmeasured start nor a mounting in doubt
+    holds a step back (they come out with their per-pair length)."""
+    R, t, _ = step(0.0, 1.0)
+    window = ScaleWindow(latency_frames=0)
+    for k in range(1, 8):
+        scale = StepScale(R, t, 0.9, 0.1, ratio=1.0 if k > 1 else None, mounting_pending=k > 3)
+        (_, motion), = window.push(k * 0.1, scale)
+        assert np.linalg.norm(motion[:3, 3]) == pytest.approx(0.9)

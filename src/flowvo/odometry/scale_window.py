@@ -284,8 +284,8 @@ class ScaleWindow:
         if self._pending <= self.latency_frames:
             return []
         first_pending_s = self._steps[len(self._steps) - self._pending][0]
-        if not self._measured and time_s - first_pending_s < MAX_UNMEASURED_HOLD_S:
-            return []  # held until something measures the scale (see MAX_UNMEASURED_HOLD_S)
+        if self.latency_frames and not self._measured and time_s - first_pending_s < MAX_UNMEASURED_HOLD_S:
+            return []  # held until something measures the scale (see MAX_UNMEASURED_HOLD_S; latency 0: never held)
         return self._emit(self._pending - self.latency_frames)
 
     def _forget_roads(self) -> None:
