@@ -99,9 +99,8 @@ def direction_offset(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = M
 def with_direction_turned(T_pred: np.ndarray, turn: np.ndarray) -> np.ndarray:
     """The run (N, 4, 4) with each step's direction of travel turned by ``turn`` (3, 3) in the camera frame of the
     step's start, its orientations and step lengths its own, from its first pose."""
-    R_world_cam = T_pred[:-1, :3, :3]
-    steps_cam = np.einsum("nji,nj->ni", R_world_cam, np.diff(T_pred[:, :3, 3], axis=0))
-    turned_world = np.einsum("nij,nj->ni", R_world_cam, steps_cam @ turn.T)
+    steps_cam = relative_motions(T_pred)[:, :3, 3]  # each step in the camera frame of its start
+    turned_world = np.einsum("nij,nj->ni", T_pred[:-1, :3, :3], steps_cam @ turn.T)
     lengths_m = step_lengths_m(T_pred)
     directions = np.divide(turned_world, lengths_m[:, None], out=np.zeros_like(turned_world),
                            where=lengths_m[:, None] > 0)

@@ -293,7 +293,8 @@ class ScaleWindow:
         through a camera mounting the drive has just replaced (a camera rolled 6 degrees and not told: its first
         plane, trusted by chance, read its step 25 % long, and the window chained the next 15 steps from it at
         half their length): forgotten, so that the roads measured through the new one scale those steps."""
-        self._steps = deque((time_s, replace(step, road_m=None)) for time_s, step in self._steps)
+        self._steps = deque((time_s, step if step.road_m is None else replace(step, road_m=None))
+                            for time_s, step in self._steps)
         self._prior = None
 
     def flush(self) -> list[tuple[float, np.ndarray]]:
