@@ -1,9 +1,11 @@
 """The streaming pipeline gives exactly the poses of running the step's stages one after another."""
 
+import threading
+
 import numpy as np
 import pytest
 
-from flowvo.drive.stream import stream_odometry
+from flowvo.drive.stream import _read, stream_odometry
 from flowvo.errors import FlowvoError
 from flowvo.methods.base import NoWindow
 
@@ -20,6 +22,9 @@ class CountingStep(NoWindow):
 
     def prepare(self, image):
         return image.astype(np.float64)
+
+    def complete(self, prepared):
+        return prepared
 
     def flow(self, previous, current):
         return float(current.mean() - previous.mean())
@@ -47,6 +52,44 @@ def test_stream_poses_equal_the_sequential_stages(overlap):
     np.testing.assert_array_equal(result.T_world_cam, np.stack(expected))
     np.testing.assert_array_equal(result.timestamps_s, [t for t, _ in data])
     assert result.frames == 25 and result.wall_seconds > 0
+
+
+class CompletingStep(CountingStep):
+    """CountingStep whose prepared frames need completing before their flow; records each completion's thread."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.completed_in: list[str] = []
+
+    def prepare(self, image):
+        return {"image": image, "mean": None}
+
+    def complete(self, prepared):
+        if prepared["mean"] is not None:
+            return prepared
+        self.completed_in.append(threading.current_thread().name)
+        return {"image": prepared["image"], "mean": float(prepared["image"].mean())}
+
+    def flow(self, previous, current):
+        return current["mean"] - previous["mean"]
+
+
+@pytest.mark.parametrize("overlap", [True, False])
+def test_frames_completed_in_either_thread_give_the_sequential_poses(overlap):
+    step = CompletingStep()
+    result = stream_odometry(iter(frames()), step, overlap=overlap)
+    plain = stream_odometry(iter(frames()), CountingStep(), overlap=False)
+    np.testing.assert_array_equal(result.T_world_cam, plain.T_world_cam)
+    assert len(step.completed_in) == 25  # each frame once
+    assert threading.current_thread().name not in step.completed_in or not overlap
+
+
+@pytest.mark.parametrize("busy", [True, False])
+def test_the_reader_completes_frames_only_while_the_motion_thread_is_busy(busy):
+    step = CompletingStep()
+    prepared = [frame for _, frame, _ in _read(iter(frames(5)), step, None, lambda: busy)]
+    assert [frame["mean"] is not None for frame in prepared] == [busy] * 5
+    assert len(step.completed_in) == (5 if busy else 0)
 
 
 class LateStep(CountingStep):

@@ -192,7 +192,7 @@ class Odometry:
         from flowvo.drive.stream import pair_motion, window_stage
 
         step = self.step
-        prepared = step.prepare(grey)
+        prepared = step.complete(step.prepare(grey))
         seconds = {"image_read": time.perf_counter() - start}
         motion = measured = None
         if self._previous is not None:

@@ -1,7 +1,9 @@
 """The per-frame odometry step every method implements, and the working frames they share.
 
 A step has three stages that a stream can run in separate threads (OpenCV and torch release the GIL):
-``prepare(image)`` turns a decoded grey frame into the step's working frame (resize), ``flow(previous,
+``prepare(image)`` turns a decoded grey frame into the step's working frame (resize), ``complete(prepared)`` does
+the rest of its preparing that either thread may do (the reader's while the motion thread has frames queued, else
+the motion thread's, before the flow: the threads share it by how busy they are, with the same result), ``flow(previous,
 current)`` estimates what moved between two working frames (stateless), and ``motion(times_s, previous,
 flow)`` turns that into the camera motion ``T_prev_cur`` (4x4: the current camera's pose in the previous
 camera's frame, metres), called once per step in frame order, so it may keep history (past flows for a
@@ -37,6 +39,8 @@ class OdometryStep(Protocol):
     opencv_threads: int | None  # OpenCV threads per call while streaming (None: OpenCV's default)
 
     def prepare(self, image: np.ndarray) -> Any: ...
+
+    def complete(self, prepared: Any) -> Any: ...
 
     def flow(self, previous: Any, current: Any) -> Any: ...
 
@@ -99,6 +103,10 @@ class WorkingFrames:
         working = cv2.resize(image, self.working_hw[::-1], interpolation=cv2.INTER_AREA) if self.resize \
             else np.ascontiguousarray(image)
         return self.undistort(working)
+
+    def complete(self, prepared: Any) -> Any:
+        """The prepared frame: nothing is left to do."""
+        return prepared
 
     def undistort(self, working: np.ndarray) -> np.ndarray:
         """A working frame remapped to the ideal pinhole image (unchanged without undistortion maps)."""

@@ -141,6 +141,10 @@ class ClassicalStep(NoWindow):
         """Full-resolution frames."""
         return image
 
+    def complete(self, prepared: np.ndarray) -> np.ndarray:
+        """The prepared frame: nothing is left to do."""
+        return prepared
+
     def flow(self, previous: np.ndarray, current: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """KLT corner tracks, in undistorted pixels."""
         tracks = self.tracker.tracks(previous, current)

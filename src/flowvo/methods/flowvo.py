@@ -21,6 +21,8 @@ the bundle stage, :mod:`~flowvo.odometry.bundle_window`). ``flowvo-pair`` is the
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from flowvo.camera import KITTI_CAMERA_HEIGHT_M, Camera
@@ -159,8 +161,9 @@ class FlowGeometryStep(WorkingFrames):
         self.last_view: tuple[float, GeometryFlow, EssentialMotion | None, RoadPlane | None] | None = None
 
     def prepare(self, image: np.ndarray) -> GeometryFrame:
-        """The working frame, its textured points, the tracks from the previous frame and their essential fit
-        (tracking here balances the reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07)."""
+        """The working frame, its textured points and the tracks from the previous frame (tracking here balances the
+        reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07); their essential fit is left
+        to :meth:`complete`."""
         working = super().prepare(image)
         previous = self._previous
         textured = textured_points(working)
@@ -178,12 +181,20 @@ class FlowGeometryStep(WorkingFrames):
         self.still_tracks.observe(tracked_prev, np.linalg.norm(tracked_next - tracked_prev, axis=1))
         if self.still_tracks.still_cells:  # no new tracks from a bonnet, a dashboard, a watermark
             textured = textured[self.still_tracks.keep(textured)]
-        pair = self.road.undistort(tracked_prev), self.road.undistort(tracked_next)  # fitted here too: the reader
-        # thread's share of the work (flowvo on clip 07: 0.27 -> 0.29 of decoding)
-        self._previous = GeometryFrame(working, textured, tracked_prev, tracked_next, *pair, self.fit_motion(*pair),
+        pair = self.road.undistort(tracked_prev), self.road.undistort(tracked_next)
+        self._previous = GeometryFrame(working, textured, tracked_prev, tracked_next, *pair, None,
                                        continued_rows[found[count:]], moved[count:][found[count:]],
-                                       self._landmarks(working, textured))
+                                       self._landmarks(working, textured), fit_pending=True)
         return self._previous
+
+    def complete(self, prepared: GeometryFrame) -> GeometryFrame:
+        """The prepared frame with its pair's essential fit (:meth:`fit_motion`; the same in either thread: USAC's
+        sampling is seeded at each call): the work a stream's reader and motion threads share by how busy they are
+        (:func:`flowvo.drive.stream.stream_odometry`). All of it in the motion thread, clip 07 streamed at 0.27 of
+        decoding; all in the reader thread 0.29-0.30; shared, 3 % faster than that."""
+        if not prepared.fit_pending:
+            return prepared
+        return replace(prepared, pair_fit=self.fit_motion(prepared.pair_prev, prepared.pair_next), fit_pending=False)
 
     def _landmarks(self, working: np.ndarray, textured: np.ndarray) -> Landmarks | None:
         """``flowvo-ba``: the landmark tracks of the frame (None for the other methods)."""
@@ -192,6 +203,7 @@ class FlowGeometryStep(WorkingFrames):
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
         """Point tracks over the whole frame (from ``prepare``), the dense flow of the road crop from the
         road key frame and the key frames' tracks (see :class:`GeometryFlow`)."""
+        current = self.complete(current)  # done already where a stream or flowvo.Odometry called it
         motion = current.pair_prev, current.pair_next, current.pair_fit
         key = previous if self.road_key.frame is None else self.road_key.frame
         road = self.road.measure(key.image, current.image, self.road_key.prediction)

@@ -15,7 +15,8 @@ from flowvo.odometry.two_view import EssentialMotion
 class GeometryFrame:
     """A working frame of the default method with its textured points, the tracks of the previous frame's
     textured points into it (``tracked_prev`` -> ``tracked_next``; undistorted: ``pair_prev`` -> ``pair_next``,
-    with their essential fit ``pair_fit``, None where there is none), and ``continued_next``: where the previous
+    with their essential fit ``pair_fit``, None where there is none; ``fit_pending`` until
+    :meth:`~flowvo.methods.flowvo.FlowGeometryStep.complete` has made it), and ``continued_next``: where the previous
     frame's tracks (its ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per
     frame, in order, in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks``
     tracked over many frames (:mod:`flowvo.odometry.landmark_tracks`); pixels of the (distorted) working frame
@@ -31,6 +32,7 @@ class GeometryFrame:
     continued_rows: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     continued_next: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
     landmarks: Landmarks | None = None
+    fit_pending: bool = False
 
 
 @dataclass(frozen=True)
