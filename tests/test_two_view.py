@@ -1,11 +1,13 @@
 """The default method's geometry on exact synthetic correspondences: motion, triangulation, road plane."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from flowvo.camera import Camera, CameraIntrinsics
 from flowvo.geometry import rotation_angle_between_rad, so3_exp
-from flowvo.odometry.road_plane import fit_road_plane
+from flowvo.odometry.road_plane import fit_road_plane, is_trusted_road
 from flowvo.odometry.road_scale import road_grid, road_points_in_view, road_step_length_m, trusted_road_plane
 from flowvo.odometry.two_view import (
     EssentialMotion,
@@ -245,6 +247,25 @@ def test_a_road_whose_flow_is_lost_is_not_trusted_but_a_slow_step_is():
     assert trusted_road_plane(project(road), lost, K, motion, min_parallax_px=1.0) is None
     plane = trusted_road_plane(project(road), project(road @ R.T + t), K, motion, min_parallax_px=1.0)
     assert HEIGHT_M / plane.distance == pytest.approx(0.3, rel=1e-6)
+
+
+def test_a_plane_through_the_camera_is_no_road():
+    """Points on the rays of one image row, 2 degrees below the axis, at any depth (scenery at the horizon of a
+    camera pitched up and run as if level): they lie on a plane through the camera, tilted 2 degrees, within the
+    tilt gate, and all of them fit it. The camera does not look down on it: it is not trusted."""
+    _, _, R, t = scene_and_motion(step_m=1.0)
+    depth = np.random.default_rng(5).uniform(5.0, 60.0, 200)
+    row = np.c_[np.linspace(-0.8, 0.8, 200) * depth, np.tan(np.radians(2.0)) * depth, depth]
+    plane = fit_road_plane(row)
+    assert abs(plane.distance) < 1e-9 and np.degrees(plane.tilt_rad) == pytest.approx(2.0, abs=1e-6)
+    assert plane.inlier_fraction == 1.0 and not is_trusted_road(plane)
+    lifted = dataclasses.replace(plane, distance=1e-15)  # as one came out on a synthetic drive, trusted then
+    assert not is_trusted_road(lifted)
+    motion = EssentialMotion(R, t / np.linalg.norm(t), np.ones(len(row), bool))
+    assert trusted_road_plane(project(row), project(row @ R.T + t), K, motion) is None
+    road = np.c_[np.linspace(-0.8, 0.8, 200) * depth, np.full(200, HEIGHT_M), depth]  # the road below, for contrast
+    assert HEIGHT_M / trusted_road_plane(project(road), project(road @ R.T + t), K, motion).distance == \
+        pytest.approx(1.0, rel=1e-6)
 
 
 def test_no_plane_without_enough_points_below_the_camera():
