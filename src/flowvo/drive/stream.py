@@ -239,7 +239,7 @@ def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometrySt
             reader = _Stage()
             reader.start(_read(frames, step, max_frames, lambda: not reader.consumer_waiting))  # a frame's
             # completion left to the motion thread while it waits for frames: the default method streamed clip 07 in
-            # 11.6-11.9 ms a frame instead of 12.0-12.3 with every fit in the reader (three paired bench runs)
+            # 11.6-12.0 ms a frame instead of 12.0-12.3 with every fit in the reader (three paired bench runs)
             motions = _Stage().start(_windowed(_motions(reader, step, view), step))  # the window stage in the motion
             # thread: in the caller's thread, a third one running Python beside these two, the default method
             # streamed at 0.32 of decoding instead of 0.345 (clip 07, median of six paired bench runs each)

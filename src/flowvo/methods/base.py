@@ -2,8 +2,8 @@
 
 A step has three stages that a stream can run in separate threads (OpenCV and torch release the GIL):
 ``prepare(image)`` turns a decoded grey frame into the step's working frame (resize), ``complete(prepared)`` does
-the rest of its preparing that either thread may do (the reader's while the motion thread has frames queued, else
-the motion thread's, before the flow: the threads share it by how busy they are, with the same result), ``flow(previous,
+the rest of its preparing, which either thread may do with the same result (the reader's unless the motion thread
+waits for a frame, else the motion thread's, before the flow), ``flow(previous,
 current)`` estimates what moved between two working frames (stateless), and ``motion(times_s, previous,
 flow)`` turns that into the camera motion ``T_prev_cur`` (4x4: the current camera's pose in the previous
 camera's frame, metres), called once per step in frame order, so it may keep history (past flows for a
