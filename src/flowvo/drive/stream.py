@@ -238,8 +238,9 @@ def stream_odometry(frames: Iterator[tuple[float, np.ndarray]], step: OdometrySt
                               label, wall_start, view, step)
             reader = _Stage()
             reader.start(_read(frames, step, max_frames, lambda: not reader.consumer_waiting))  # a frame's
-            # completion left to the motion thread while it waits for frames: the default method streamed clip 07 in
-            # 11.6-12.0 ms a frame instead of 12.0-12.3 with every fit in the reader (three paired bench runs)
+            # completion left to the motion thread while it waits for frames (on clip 07 it waited 1.2 ms a frame
+            # for frames with every fit in the reader, 0.3 ms now): 11.6-12.0 ms a frame instead of 12.0-12.3 in
+            # three paired bench runs, the same in two later ones on a drifting machine
             motions = _Stage().start(_windowed(_motions(reader, step, view), step))  # the window stage in the motion
             # thread: in the caller's thread, a third one running Python beside these two, the default method
             # streamed at 0.32 of decoding instead of 0.345 (clip 07, median of six paired bench runs each)

@@ -191,7 +191,7 @@ class FlowGeometryStep(WorkingFrames):
         """The prepared frame with its pair's essential fit (:meth:`fit_motion`; the same in either thread: USAC's
         sampling is seeded at each call): the work a stream's reader and motion threads share by how busy they are
         (:func:`flowvo.drive.stream.stream_odometry`). All of it in the motion thread, clip 07 streamed at 0.27 of
-        decoding; all in the reader thread 0.29-0.30; shared, 3 % faster than that."""
+        decoding; all in the reader thread 0.29-0.30; shared, up to 3 % faster, within the machine's drift."""
         if not prepared.fit_pending:
             return prepared
         return replace(prepared, pair_fit=self.fit_motion(prepared.pair_prev, prepared.pair_next), fit_pending=False)
