@@ -46,9 +46,12 @@ def command(args: argparse.Namespace) -> int:
         if warning := _unscaled_warning(summary, args.out):
             print(warning)
     if limit := summary.get("speed_limit", {}).get("refused_measurements"):
+        from flowvo.methods.flowvo import LOW_CAMERA_HEIGHT_M, MAX_SPEED_MPS  # loaded by the run already
+
         max_speed_mps = summary["speed_limit"]["max_speed_mps"]
-        print(f"note: {limit} measured speeds were refused as faster than {max_speed_mps:.1f} m/s (45 for a camera "
-              "1.65 m high, in proportion to the height; less soon after a standstill)")
+        print(f"note: {limit} measured speeds were refused as faster than {max_speed_mps:.1f} m/s "
+              f"({MAX_SPEED_MPS:g} for a camera {LOW_CAMERA_HEIGHT_M:g} m high, in proportion to the height; less soon "
+              "after a standstill)")
     if "mcap" in summary:
         print(f"mcap: {args.out}/{summary['mcap']}")
     if "metrics" in summary:

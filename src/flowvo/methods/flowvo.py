@@ -79,6 +79,11 @@ ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (
 ROBUST_SCALE_PX = 0.06  # at the reference width: Cauchy scale of the robust refit of each essential fit
 # (two_view.refined_motion): synthetic replays 08-10 pooled 1.13 -> 0.99 %, 0.0039 -> 0.0033 deg/m; 0.03 px
 # scored 0.95 % there but spread the real clips wider over the working widths (06: 1.51x)
+MAX_SPEED_MPS = 45.0  # a speed measured faster than this (162 km/h) for a camera LOW_CAMERA_HEIGHT_M high is a wrong
+# road plane, refused; in proportion to the camera height, as every limit of the method (it works in camera heights)
+LOW_CAMERA_HEIGHT_M = 1.0  # the lowest camera the limit holds for: a dash-cam 1.2 m high may read up to 54 m/s. With
+# it at KITTI's 1.65 m a dash-cam 1.2 m high refused every road above 32.7 m/s: a synthetic motorway drive at 37 m/s
+# (KITTI 01's path 1.4 times as fast) read 940 m of 1700, t_err 46.6 % (1.07 % for the camera at 1.65 m)
 
 
 class FlowGeometryStep(WorkingFrames):
@@ -132,7 +137,8 @@ class FlowGeometryStep(WorkingFrames):
         self.still_flow_px = STILL_FLOW_PX * scale
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * scale
         self.robust_scale_px = ROBUST_SCALE_PX * scale
-        self.speed = SpeedPrior()
+        self.speed = SpeedPrior(max_speed_mps=MAX_SPEED_MPS * KITTI_CAMERA_HEIGHT_M / LOW_CAMERA_HEIGHT_M)  # in the
+        # method's units, KITTI camera heights (below)
         levelling = self.camera.road_levelling if self.camera.pitch_deg else None  # road planes about the road's
         # normal (a camera mounted level needs no rotation)
         car_axes = np.eye(3) if levelling is None else levelling.T  # columns: the car's right, down and forward
@@ -401,8 +407,9 @@ class FlowGeometryStep(WorkingFrames):
         fit's (:mod:`flowvo.odometry.yaw_rate`), how many steps' rotations were measured from an earlier key frame
         (:mod:`flowvo.odometry.rotation_key`), how many cells of the road grid and of the tracked points stood still
         at the end (a bonnet: :mod:`flowvo.odometry.still_regions`), how many measured speeds were refused as faster
-        than a car could have driven (``speed_limit``: 45 m/s for a camera 1.65 m high, in proportion to the height,
-        lower soon after a standstill), and the window stage's record (:meth:`WindowStage.summary`)."""
+        than a car could have driven (``speed_limit``: ``MAX_SPEED_MPS`` for a camera ``LOW_CAMERA_HEIGHT_M`` high, in
+        proportion to the height, lower soon after a standstill), and the window stage's record
+        (:meth:`WindowStage.summary`)."""
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_length.tally.record() | self.road_length.profile.record() | \
             {"pitches_taken_deg": self.road_length.pitches_taken_deg,
