@@ -83,7 +83,7 @@ MAX_SPEED_MPS = 45.0  # a speed measured faster than this (162 km/h) for a camer
 # road plane, refused; in proportion to the camera height, as every limit of the method (it works in camera heights)
 LOW_CAMERA_HEIGHT_M = 1.0  # the lowest camera the limit holds for: a dash-cam 1.2 m high may read up to 54 m/s. With
 # it at KITTI's 1.65 m a dash-cam 1.2 m high refused every road above 32.7 m/s: a synthetic motorway drive at 37 m/s
-# (KITTI 01's path 1.4 times as fast) read 940 m of 1700, t_err 46.6 % (1.07 % for the camera at 1.65 m)
+# (KITTI 01's path 1.4 times as fast) read 940 m of 1698, t_err 46.6 % (1.07 % for the camera at 1.65 m)
 
 
 class FlowGeometryStep(WorkingFrames):
