@@ -331,6 +331,26 @@ def test_road_flow_of_an_exactly_moved_road_gives_its_step_length(predicted_m):
     assert CAMERA.height_m / plane.distance == pytest.approx(1.0, rel=0.01)
 
 
+def test_the_best_prediction_of_an_exactly_moved_road_is_its_step():
+    """A textured frame moved by a flat road's homography under a 3 m step: among road predictions at steps 12 %
+    apart, the one whose warp matches the road is the true step's (how a drive that starts fast finds its road)."""
+    step = FlowGeometryStep(CAMERA, HW)
+    motion = EssentialMotion(np.eye(3), np.array([0.0, 0.0, -1.0]), np.ones(1, bool))
+    lengths_m = 3.0 * 1.12 ** np.arange(-6, 7)
+
+    def moved_by(length_m):
+        return road_homography(step.K, motion, RoadPlane.level(CAMERA.height_m / length_m))
+
+    texture = np.random.default_rng(4).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
+    previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
+    current = cv2.warpPerspective(previous, moved_by(3.0), HW[::-1], flags=cv2.INTER_CUBIC,
+                                  borderMode=cv2.BORDER_REFLECT)
+    predictions = [moved_by(length_m) for length_m in lengths_m]
+    best = step.road.best_prediction(previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8),
+                                     predictions)
+    assert best is predictions[6]
+
+
 @pytest.mark.parametrize(("rate_hz", "window"), [(5.0, 9), (10.0, 9), (30.0, 27)])
 def test_speed_window_spans_the_same_time_at_any_frame_rate(rate_hz, window):
     prior = SpeedPrior()

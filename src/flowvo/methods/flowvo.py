@@ -38,7 +38,12 @@ from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
 from flowvo.odometry.road_plane import RoadPlane
-from flowvo.odometry.road_scale import NetworkFallbackPolicy, road_flow_within_reach, road_room
+from flowvo.odometry.road_scale import (
+    NetworkFallbackPolicy,
+    metric_road_homography,
+    road_flow_within_reach,
+    road_room,
+)
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
@@ -79,6 +84,9 @@ ESSENTIAL_THRESHOLD_PX = 0.25  # at the reference width: USAC inlier threshold (
 ROBUST_SCALE_PX = 0.06  # at the reference width: Cauchy scale of the robust refit of each essential fit
 # (two_view.refined_motion): synthetic replays 08-10 pooled 1.13 -> 0.99 %, 0.0039 -> 0.0033 deg/m; 0.03 px
 # scored 0.95 % there but spread the real clips wider over the working widths (06: 1.51x)
+ACQUISITION_STEPS = np.geomspace(0.05, 10.0, 48)  # step lengths (KITTI camera heights) a drive's first road
+# prediction is chosen from where its road moved beyond DIS's reach, 12 % apart: DIS measures what is left. Without it
+# a camera 1.2 m high starting at 36 m/s (49.5 KITTI camera heights a second) measured no road for 2 s
 MAX_SPEED_MPS = 45.0  # a speed measured faster than this (162 km/h) for a camera LOW_CAMERA_HEIGHT_M high is a wrong
 # road plane, refused; in proportion to the camera height, as every limit of the method (it works in camera heights)
 LOW_CAMERA_HEIGHT_M = 1.0  # the lowest camera the limit holds for: a dash-cam 1.2 m high may read up to 54 m/s. With
@@ -212,12 +220,29 @@ class FlowGeometryStep(WorkingFrames):
         current = self.complete(current)  # done already where a stream or flowvo.Odometry called it
         motion = current.pair_prev, current.pair_next, current.pair_fit
         key = previous if self.road_key.frame is None else self.road_key.frame
+        if self.road_key.prediction is None and self.speed.last_speed_mps is None and current.pair_fit is not None:
+            self.road_key.prediction = self._acquired_prediction(previous, current)
         road = self.road.measure(key.image, current.image, self.road_key.prediction)
         key_tracks = (None, None) if key is previous else self._tracks_from(key, current)
         rotation_key = self.checks.rotation_key.frame
         rotation_tracks = (None, None) if rotation_key is None else \
             key_tracks if rotation_key is key else self._tracks_from(rotation_key, current)
         return GeometryFlow(*motion, *road, current, *key_tracks, *rotation_tracks)
+
+    def _acquired_prediction(self, previous: GeometryFrame, current: GeometryFrame) -> np.ndarray | None:
+        """While the drive's speed is not known (its start): where the road moved beyond DIS's reach from ``previous``
+        to ``current``, the road homography of the pair's motion at the one of ``ACQUISITION_STEPS`` whose warp
+        matches the road best (:meth:`RoadFlow.best_prediction`; the road level under the camera's mounting, a camera
+        height below it), else None (the road is measured as it is)."""
+        if road_flow_within_reach(self.road.unpredicted_motion_px(previous.image, current.image), self.dis_reach_px,
+                                  predicted=False):
+            return None
+        levelling = self.road_length.levelling
+        normal = np.array([0.0, 1.0, 0.0]) if levelling is None else levelling.T @ np.array([0.0, 1.0, 0.0])
+        fit = current.pair_fit
+        return self.road.best_prediction(previous.image, current.image, [
+            metric_road_homography(self.K, se3_next_prev(fit.R, fit.t_dir * length), normal, KITTI_CAMERA_HEIGHT_M)
+            for length in ACQUISITION_STEPS])
 
     def _tracks_from(self, key: GeometryFrame, current: GeometryFrame) -> tuple[np.ndarray, np.ndarray]:
         """The key frame's textured points tracked into ``current``: where they were and went, undistorted."""

@@ -95,6 +95,33 @@ class RoadFlow:
             return road_points_in_view(self.grid_undistorted_px, moved, self.working_hw)
         return road_points_in_view(self.grid_undistorted_px[self._keep], moved[self._keep], self.working_hw)
 
+    def unpredicted_motion_px(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
+        """How far each road grid point moved from working frame ``previous`` to ``current`` by the road crop's flow
+        without a prediction (R,), undistorted working pixels; nothing observed for the still cells."""
+        return np.linalg.norm(self._moved(previous, current, None) - self.grid_undistorted_px, axis=1)
+
+    def best_prediction(self, previous: np.ndarray, current: np.ndarray, predictions: list[np.ndarray]) -> np.ndarray:
+        """Of road homographies ``previous -> current`` (undistorted working pixels), the one whose warp of ``current``
+        matches ``previous``'s road crop best (least mean absolute difference of grey levels, with the cheaper
+        bilinear warp): how a drive that starts fast finds its road's motion before any prediction exists."""
+        previous_crop = previous[self.crop].astype(np.float32)
+        differences = [float(np.mean(np.abs(self._warped(current, prediction, cv2.INTER_LINEAR) - previous_crop)))
+                       for prediction in predictions]
+        return predictions[int(np.argmin(differences))]
+
+    def _warped(self, current: np.ndarray, prediction: np.ndarray, interpolation: int = ROAD_WARP_INTERPOLATION
+                ) -> np.ndarray:
+        """Working frame ``current`` warped onto the road crop by the road homography ``prediction`` (undistorted
+        working pixels, the crop's frame to ``current``; through the lens where the camera has one)."""
+        height, width = self.crop_hw
+        if self.camera.distortion.is_none:
+            return cv2.warpPerspective(current, prediction @ self._crop_to_frame, (width, height),
+                                       flags=interpolation | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
+        ideal_in_current = _transform(self._crop_ideal_px, prediction)
+        source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
+        source = source.reshape(height, width, 2)
+        return cv2.remap(current, source[..., 0], source[..., 1], interpolation, borderMode=cv2.BORDER_REPLICATE)
+
     def _moved(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
         """Where every road grid point of ``previous`` is in ``current`` (R, 2), undistorted working pixels
         (see :meth:`measure`)."""
@@ -103,21 +130,10 @@ class RoadFlow:
         if prediction is None:
             flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[self.crop]))
             return self.undistort(follow_flow(grid, flow) + self.crop_origin)
-        height, width = previous_crop.shape
+        flow = self.estimator.estimate(previous_crop, self._warped(current, prediction))
         if self.camera.distortion.is_none:
-            crop_to_current = prediction @ self._crop_to_frame
-            warped = cv2.warpPerspective(current, crop_to_current, (width, height),
-                                         flags=ROAD_WARP_INTERPOLATION | cv2.WARP_INVERSE_MAP,
-                                         borderMode=cv2.BORDER_REPLICATE)
-            moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped))
-            return _transform(moved, crop_to_current)
-        ideal_in_current = _transform(self._crop_ideal_px, prediction)
-        source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
-        source = source.reshape(height, width, 2)
-        warped = cv2.remap(current, source[..., 0], source[..., 1], ROAD_WARP_INTERPOLATION,
-                           borderMode=cv2.BORDER_REPLICATE)
-        moved = follow_flow(grid, self.estimator.estimate(previous_crop, warped)) + self.crop_origin
-        return _transform(self.undistort(moved), prediction)
+            return _transform(follow_flow(grid, flow), prediction @ self._crop_to_frame)
+        return _transform(self.undistort(follow_flow(grid, flow) + self.crop_origin), prediction)
 
 
 def _transform(points_px: np.ndarray, homography: np.ndarray) -> np.ndarray:
