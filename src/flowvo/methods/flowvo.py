@@ -216,11 +216,13 @@ class FlowGeometryStep(WorkingFrames):
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
         """Point tracks over the whole frame (from ``prepare``), the dense flow of the road crop from the
-        road key frame and the key frames' tracks (see :class:`GeometryFlow`)."""
+        road key frame (at a drive's start through the prediction :meth:`_acquired_prediction` finds) and the key
+        frames' tracks (see :class:`GeometryFlow`)."""
         current = self.complete(current)  # done already where a stream or flowvo.Odometry called it
         motion = current.pair_prev, current.pair_next, current.pair_fit
         key = previous if self.road_key.frame is None else self.road_key.frame
-        if self.road_key.prediction is None and self.speed.last_speed_mps is None and current.pair_fit is not None:
+        if key is previous and self.road_key.prediction is None and self.speed.last_speed_mps is None and \
+                current.pair_fit is not None:
             self.road_key.prediction = self._acquired_prediction(previous, current)
         road = self.road.measure(key.image, current.image, self.road_key.prediction)
         key_tracks = (None, None) if key is previous else self._tracks_from(key, current)
