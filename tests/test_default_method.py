@@ -316,16 +316,9 @@ def test_road_flow_of_an_exactly_moved_road_gives_its_step_length(predicted_m):
     step = FlowGeometryStep(CAMERA, HW)
     R = so3_exp(np.array([0.0, np.radians(1.0), 0.0]))
     motion = EssentialMotion(R, -R @ np.array([0.0, 0.0, 1.0]), np.ones(1, bool))
-
-    def moved_by(length_m):
-        return road_homography(step.K, motion, RoadPlane.level(CAMERA.height_m / length_m))
-
-    texture = np.random.default_rng(3).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
-    previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
-    current = cv2.warpPerspective(previous, moved_by(1.0), HW[::-1], flags=cv2.INTER_CUBIC,
-                                  borderMode=cv2.BORDER_REFLECT)
-    road = step.road.measure(previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8),
-                          None if predicted_m is None else moved_by(predicted_m))
+    previous, current = _road_moved(step, motion, 1.0, seed=3)
+    road = step.road.measure(previous, current,
+                             None if predicted_m is None else _road_homography_of(step, motion, predicted_m))
     assert len(road[0]) < len(step.road.grid_px)  # the nearest road points left the frame
     plane = trusted_road_plane(*road, step.K, motion)
     assert CAMERA.height_m / plane.distance == pytest.approx(1.0, rel=0.01)
@@ -336,19 +329,24 @@ def test_the_best_prediction_of_an_exactly_moved_road_is_its_step():
     apart, the one whose warp matches the road is the true step's (how a drive that starts fast finds its road)."""
     step = FlowGeometryStep(CAMERA, HW)
     motion = EssentialMotion(np.eye(3), np.array([0.0, 0.0, -1.0]), np.ones(1, bool))
-    lengths_m = 3.0 * 1.12 ** np.arange(-6, 7)
+    predictions = [_road_homography_of(step, motion, length_m) for length_m in 3.0 * 1.12 ** np.arange(-6, 7)]
+    assert step.road.best_prediction(*_road_moved(step, motion, 3.0, seed=4), predictions) is predictions[6]
 
-    def moved_by(length_m):
-        return road_homography(step.K, motion, RoadPlane.level(CAMERA.height_m / length_m))
 
-    texture = np.random.default_rng(4).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
+def _road_homography_of(step: FlowGeometryStep, motion: EssentialMotion, length_m: float) -> np.ndarray:
+    """The homography of a level road ``CAMERA.height_m`` below the camera under ``motion`` at ``length_m``."""
+    return road_homography(step.K, motion, RoadPlane.level(CAMERA.height_m / length_m))
+
+
+def _road_moved(step: FlowGeometryStep, motion: EssentialMotion, length_m: float, seed: int
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """A blurred random texture of ``HW`` and the same moved by the level road's homography under ``motion`` at
+    ``length_m``, both uint8."""
+    texture = np.random.default_rng(seed).uniform(0, 255, (HW[0] // 2, HW[1] // 2)).astype(np.float32)
     previous = cv2.GaussianBlur(cv2.resize(texture, HW[::-1], interpolation=cv2.INTER_CUBIC), (0, 0), 1.0)
-    current = cv2.warpPerspective(previous, moved_by(3.0), HW[::-1], flags=cv2.INTER_CUBIC,
-                                  borderMode=cv2.BORDER_REFLECT)
-    predictions = [moved_by(length_m) for length_m in lengths_m]
-    best = step.road.best_prediction(previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8),
-                                     predictions)
-    assert best is predictions[6]
+    current = cv2.warpPerspective(previous, _road_homography_of(step, motion, length_m), HW[::-1],
+                                  flags=cv2.INTER_CUBIC, borderMode=cv2.BORDER_REFLECT)
+    return previous.clip(0, 255).astype(np.uint8), current.clip(0, 255).astype(np.uint8)
 
 
 @pytest.mark.parametrize(("rate_hz", "window"), [(5.0, 9), (10.0, 9), (30.0, 27)])
