@@ -97,7 +97,7 @@ class RoadFlow:
 
     def unpredicted_motion_px(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
         """How far each road grid point moved from working frame ``previous`` to ``current`` by the road crop's flow
-        without a prediction (R,), undistorted working pixels; nothing observed for the still cells."""
+        without a prediction (R,), undistorted working pixels (the still cells' judge does not see it)."""
         return np.linalg.norm(self._moved(previous, current, None) - self.grid_undistorted_px, axis=1)
 
     def best_prediction(self, previous: np.ndarray, current: np.ndarray, predictions: list[np.ndarray]) -> np.ndarray:
