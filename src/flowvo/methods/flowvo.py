@@ -37,7 +37,7 @@ from flowvo.odometry.motion_checks import MotionChecks
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
-from flowvo.odometry.road_plane import RoadPlane
+from flowvo.odometry.road_plane import RoadPlane, in_camera_frame
 from flowvo.odometry.road_scale import (
     NetworkFallbackPolicy,
     metric_road_homography,
@@ -216,31 +216,30 @@ class FlowGeometryStep(WorkingFrames):
 
     def flow(self, previous: GeometryFrame, current: GeometryFrame) -> GeometryFlow:
         """Point tracks over the whole frame (from ``prepare``), the dense flow of the road crop from the
-        road key frame (at a drive's start through the prediction :meth:`_acquired_prediction` finds) and the key
+        road key frame (at a drive's start through the prediction :meth:`_swept_prediction` finds) and the key
         frames' tracks (see :class:`GeometryFlow`)."""
         current = self.complete(current)  # done already where a stream or flowvo.Odometry called it
         motion = current.pair_prev, current.pair_next, current.pair_fit
         key = previous if self.road_key.frame is None else self.road_key.frame
+        unpredicted = None
         if key is previous and self.road_key.prediction is None and self.speed.last_speed_mps is None and \
                 current.pair_fit is not None:
-            self.road_key.prediction = self._acquired_prediction(previous, current)
-        road = self.road.measure(key.image, current.image, self.road_key.prediction)
+            unpredicted = self.road.unpredicted(previous.image, current.image)
+            if not road_flow_within_reach(np.linalg.norm(unpredicted - self.road.grid_undistorted_px, axis=1),
+                                          self.dis_reach_px, predicted=False):
+                self.road_key.prediction, unpredicted = self._swept_prediction(previous, current), None
+        road = self.road.measure(key.image, current.image, self.road_key.prediction, unpredicted)
         key_tracks = (None, None) if key is previous else self._tracks_from(key, current)
         rotation_key = self.checks.rotation_key.frame
         rotation_tracks = (None, None) if rotation_key is None else \
             key_tracks if rotation_key is key else self._tracks_from(rotation_key, current)
         return GeometryFlow(*motion, *road, current, *key_tracks, *rotation_tracks)
 
-    def _acquired_prediction(self, previous: GeometryFrame, current: GeometryFrame) -> np.ndarray | None:
-        """While the drive's speed is not known (its start): where the road moved beyond DIS's reach from ``previous``
-        to ``current``, the road homography of the pair's motion at the one of ``ACQUISITION_STEPS`` whose warp
-        matches the road best (:meth:`RoadFlow.best_prediction`; the road level under the camera's mounting, a camera
-        height below it), else None (the road is measured as it is)."""
-        if road_flow_within_reach(self.road.unpredicted_motion_px(previous.image, current.image), self.dis_reach_px,
-                                  predicted=False):
-            return None
-        levelling = self.road_length.levelling
-        normal = np.array([0.0, 1.0, 0.0]) if levelling is None else levelling.T @ np.array([0.0, 1.0, 0.0])
+    def _swept_prediction(self, previous: GeometryFrame, current: GeometryFrame) -> np.ndarray:
+        """The road homography of the pair's motion at the one of ``ACQUISITION_STEPS`` whose warp matches the road
+        best (:meth:`RoadFlow.best_prediction`; the road level under the camera's mounting, a camera height below
+        it): a drive's first road prediction, while its speed is not known and its road moved beyond DIS's reach."""
+        normal = in_camera_frame(RoadPlane.level(KITTI_CAMERA_HEIGHT_M), self.road_length.levelling).normal
         fit = current.pair_fit
         return self.road.best_prediction(previous.image, current.image, [
             metric_road_homography(self.K, se3_next_prev(fit.R, fit.t_dir * length), normal, KITTI_CAMERA_HEIGHT_M)

@@ -73,8 +73,8 @@ class RoadFlow:
         """Working-frame pixels (N, 2) to ideal pinhole pixels."""
         return undistort_points(points_px, self.K, self.camera.distortion)
 
-    def measure(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None
-                ) -> tuple[np.ndarray, np.ndarray]:
+    def measure(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None,
+                unpredicted: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The road grid points of working frame ``previous`` that stay in view, and where they are in
         ``current``, each (R, 2), undistorted working pixels (:func:`road_points_in_view`: the nearest road
         leaves the frame on a long step).
@@ -87,18 +87,19 @@ class RoadFlow:
         nearly uniform, which DIS measures best. On the real clips the road step lengths against the truth
         scattered less (inter-quartile range 4.7 against 7.1 %, with dis-medium-fine) than when only road
         motion over 12 px was predicted. The homography acts on undistorted pixels; with lens
-        distortion the warp goes through the lens."""
-        moved = self._moved(previous, current, prediction)
+        distortion the warp goes through the lens. ``unpredicted``: :meth:`unpredicted` of the same frames where it
+        was made already (without a prediction), so that DIS does not measure it twice."""
+        moved = self._moved(previous, current, prediction) if unpredicted is None else unpredicted
         if self.still.observe(self.grid_px, np.linalg.norm(moved - self.grid_undistorted_px, axis=1)):
             self._keep = self.still.keep(self.grid_px) if self.still.still_cells else None
         if self._keep is None:
             return road_points_in_view(self.grid_undistorted_px, moved, self.working_hw)
         return road_points_in_view(self.grid_undistorted_px[self._keep], moved[self._keep], self.working_hw)
 
-    def unpredicted_motion_px(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
-        """How far each road grid point moved from working frame ``previous`` to ``current`` by the road crop's flow
-        without a prediction (R,), undistorted working pixels (the still cells' judge does not see it)."""
-        return np.linalg.norm(self._moved(previous, current, None) - self.grid_undistorted_px, axis=1)
+    def unpredicted(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
+        """Where every road grid point of working frame ``previous`` is in ``current`` by the road crop's flow
+        without a prediction (R, 2), undistorted working pixels; nothing judged yet (:meth:`measure` does)."""
+        return self._moved(previous, current, None)
 
     def best_prediction(self, previous: np.ndarray, current: np.ndarray, predictions: list[np.ndarray]) -> np.ndarray:
         """Of road homographies ``previous -> current`` (undistorted working pixels), the one whose warp of ``current``
