@@ -73,8 +73,13 @@ def test_se3_chain_reproduces_kitti_09(kitti_poses_dir):
 
 def test_so3_log_inverts_exp_including_small_angles():
     rng = np.random.default_rng(1)
-    vectors = np.concatenate([rng.normal(scale=0.8, size=(50, 3)), rng.normal(scale=1e-9, size=(5, 3))])
+    axis = np.array([0.36, -0.48, 0.8])
+    vectors = np.concatenate([rng.normal(scale=0.8, size=(50, 3)), rng.normal(scale=1e-9, size=(5, 3)),
+                              np.outer([np.pi / 2 - 1e-9, np.pi / 2 + 1e-9, np.pi - 1e-6], axis)])
     np.testing.assert_allclose(g.so3_log(g.so3_exp(vectors)), vectors, atol=1e-9)
+    half_turn = g.so3_log(g.so3_exp(np.pi * axis))  # the axis either way: the same rotation
+    np.testing.assert_allclose(np.abs(half_turn), np.pi * np.abs(axis), atol=1e-9)
+    np.testing.assert_array_equal(g.so3_log(np.eye(3)), np.zeros(3))
 
 
 def test_mirror_rule_for_se3_matches_reflected_motion():
@@ -96,3 +101,13 @@ def test_skew_is_the_cross_product():
     a, b = np.array([0.3, -1.2, 2.0]), np.array([-0.7, 0.4, 1.1])
     np.testing.assert_allclose(g.skew(a) @ b, np.cross(a, b), atol=1e-15)
     np.testing.assert_array_equal(g.skew(a), -g.skew(a).T)
+
+
+def test_cross_is_numpys_exactly_with_broadcasting():
+    rng = np.random.default_rng(3)
+    a, b, c = rng.normal(size=(40, 3)), rng.normal(size=(40, 3)), rng.normal(size=3)
+    stacked = rng.normal(size=(5, 4, 3))
+    np.testing.assert_array_equal(g.cross(a, b), np.cross(a, b))
+    np.testing.assert_array_equal(g.cross(c, a), np.cross(c, a))
+    np.testing.assert_array_equal(g.cross(stacked, c), np.cross(stacked, c))
+    np.testing.assert_array_equal(g.cross(a, b), -g.cross(b, a))

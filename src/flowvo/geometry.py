@@ -108,6 +108,18 @@ def skew(vector: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
 
 
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross products of 3-vectors along the last axis of ``a`` and ``b`` (broadcast): the same products and
+    differences as ``np.cross`` (identical results) without its axis handling, which cost 40 us a call in the
+    stream against 10."""
+    a, b = np.asarray(a), np.asarray(b)
+    product = np.empty(np.broadcast_shapes(a.shape, b.shape), np.result_type(a, b))
+    product[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    product[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    product[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return product
+
+
 def so3_exp(rotvec: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) from axis-angle vectors (..., 3), radians."""
     rotvec = np.asarray(rotvec, dtype=np.float64)
@@ -115,9 +127,22 @@ def so3_exp(rotvec: np.ndarray) -> np.ndarray:
 
 
 def so3_log(rotation: np.ndarray) -> np.ndarray:
-    """Axis-angle vectors (..., 3), radians (angle in [0, pi]), of rotations (..., 3, 3)."""
-    rotation = np.asarray(rotation, dtype=np.float64)
-    return Rotation.from_matrix(rotation.reshape(-1, 3, 3)).as_rotvec().reshape(*rotation.shape[:-2], 3)
+    """Axis-angle vectors (..., 3), radians (angle in [0, pi]), of rotations (..., 3, 3).
+
+    Up to 90 degrees from the matrix's antisymmetric part, ``sin(angle) axis``, and its trace (the stream takes
+    one a step: SciPy's ``Rotation`` took 0.23 ms a call there, this 0.03); beyond, where that part vanishes
+    towards 180 degrees, by SciPy's quaternion."""
+    R = np.asarray(rotation, dtype=np.float64)
+    sine_axis = 0.5 * np.stack([R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]],
+                               axis=-1)
+    sine = np.sqrt((sine_axis * sine_axis).sum(axis=-1))
+    cosine = 0.5 * (R[..., 0, 0] + R[..., 1, 1] + R[..., 2, 2] - 1.0)
+    angle = np.arctan2(sine, cosine)
+    log = sine_axis * np.where(sine > 0.0, angle / np.where(sine > 0.0, sine, 1.0), 1.0)[..., None]
+    wide = cosine < 0.0
+    if wide.any():
+        log[wide] = Rotation.from_matrix(R[wide]).as_rotvec()
+    return log
 
 
 def se3_targets(motions: np.ndarray) -> np.ndarray:

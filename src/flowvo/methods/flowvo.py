@@ -33,6 +33,7 @@ from flowvo.methods.cnn import CnnStep
 from flowvo.methods.geometry_frames import GeometryFlow, GeometryFrame
 from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
 from flowvo.odometry.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
+from flowvo.odometry.median import median
 from flowvo.odometry.motion_checks import MotionChecks
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
@@ -261,7 +262,7 @@ class FlowGeometryStep(WorkingFrames):
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         span = self.road_key.begin(previous, times_s[0], flow.key_prev is None)
         road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
-        road_moved_px = float(np.median(road_motion_px)) if len(road_motion_px) else 0.0
+        road_moved_px = median(road_motion_px) if len(road_motion_px) else 0.0
         road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, span.predicted, span.steps)
         step_px = self._step_motion_px(flow, road_moved_px / span.steps)
         still = step_px < self.still_flow_px * min(1.0, dt_s / STILL_SPAN_S)
@@ -321,7 +322,7 @@ class FlowGeometryStep(WorkingFrames):
         """How far the step moved the view (working pixels): the larger of the road's median motion per step
         (``road_step_px``) and the tracked points' median motion (the road's alone without tracks)."""
         moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
-        return max(road_step_px, float(np.median(moved_px))) if len(moved_px) else road_step_px
+        return max(road_step_px, median(moved_px)) if len(moved_px) else road_step_px
 
     def _creeping(self, fit: EssentialMotion) -> EssentialMotion:
         """A step shorter than a standstill's at 10 Hz (road and scene under ``STILL_FLOW_PX``) but too long for

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowvo.odometry.median import median
 from flowvo.odometry.road_plane import MIN_ROAD_POINTS, RoadPlane
 
 DEPTH_EDGES_H = np.array([5.0, 7.0, 10.0, 14.0, 20.0])  # the cells' depth bands (camera heights ahead; below the
@@ -92,7 +93,7 @@ class RoadProfile:
         where fewer than ``MIN_ROAD_POINTS`` would be left. The height is the points' median depth below the camera."""
         if not self.off_road.any() or not len(points):
             return np.ones(len(points), bool)
-        kept = ~self.off_road[ground_cells(points, float(np.median(points[:, 1])))]
+        kept = ~self.off_road[ground_cells(points, median(points[:, 1]))]
         return kept if kept.sum() >= MIN_ROAD_POINTS else np.ones(len(points), bool)
 
     def observe(self, points: np.ndarray, plane: RoadPlane) -> None:

@@ -18,6 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from flowvo.odometry.median import median
 from flowvo.odometry.two_view import EssentialMotion, pair_depths, translation_parallax_px
 
 MIN_PARALLAX_PX = 2.0  # at the reference width: translation parallax below this leaves the depth too uncertain
@@ -56,6 +57,6 @@ def step_length_ratio(first: tuple[np.ndarray, np.ndarray], first_motion: Essent
     if count < min_points:
         return None
     log_ratios = np.log(depth_b_first[usable] / depth_b_second[usable])
-    median = float(np.median(log_ratios))
-    spread = MAD_TO_SIGMA * float(np.median(np.abs(log_ratios - median)))
-    return LengthRatio(float(np.exp(median)), MEDIAN_EFFICIENCY * spread / np.sqrt(count))
+    middle = median(log_ratios)
+    spread = MAD_TO_SIGMA * median(np.abs(log_ratios - middle))
+    return LengthRatio(float(np.exp(middle)), MEDIAN_EFFICIENCY * spread / np.sqrt(count))

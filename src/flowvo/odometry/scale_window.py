@@ -40,6 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flowvo.geometry import invert_se3, rotation_angle_between_rad
+from flowvo.odometry.median import median
 from flowvo.odometry.speed_prior import SPEED_HORIZON_S
 from flowvo.odometry.two_view import se3_next_prev
 
@@ -325,7 +326,7 @@ class ScaleWindow:
                          for k in range(first, first + count)]
         self._pending -= count
         intervals = [step.dt_s for _, step in self._steps]
-        keep = max(MIN_WINDOW_STEPS, int(round(self.window_s / float(np.median(intervals)))))
+        keep = max(MIN_WINDOW_STEPS, int(round(self.window_s / median(intervals))))
         leaving = max(0, len(self._steps) - max(keep, self._pending))
         for k in range(leaving if self.marginalise else 0):
             self._prior = self._marginal(k, log_lengths, links)

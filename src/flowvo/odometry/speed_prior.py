@@ -12,6 +12,8 @@ from collections import deque
 
 import numpy as np
 
+from flowvo.odometry.median import median
+
 SPEED_WINDOW_S = 0.9  # the robust line's span: nine frames at KITTI's 10 Hz, where it was tuned
 MIN_WINDOW = 9  # measurements in the line at least (lower frame rates span more time, as tuned on 5-10 Hz)
 SPEED_HORIZON_S = 1.0  # the window's nine frames span 0.9 s at KITTI's 10 Hz; a longer gap ends the history
@@ -39,16 +41,9 @@ def robust_line_value(times_s: np.ndarray, values: np.ndarray, at_s: float, iter
         else:  # all at one time: no slope
             value, slope = b0 / s0, 0.0
         residuals = values - value - slope * offsets
-        spread = 1.4826 * _median(np.abs(residuals)) + 1e-3
+        spread = 1.4826 * median(np.abs(residuals)) + 1e-3
         weights = np.sqrt(np.minimum(1.0, 1.5 * spread / np.maximum(np.abs(residuals), 1e-9)))
     return float(value)
-
-
-def _median(values: np.ndarray) -> float:
-    """The median of a few values (``np.median``'s result, without its overhead: it runs six times a frame)."""
-    ordered = np.sort(values)
-    middle = len(ordered) // 2
-    return float(ordered[middle] if len(ordered) % 2 else (ordered[middle - 1] + ordered[middle]) / 2)
 
 
 class SpeedPrior:
@@ -128,13 +123,13 @@ class SpeedPrior:
             return None
         times, speeds = (np.array(column) for column in zip(*self._history, strict=True))
         if len(speeds) < self.min_points:
-            return float(np.median(speeds))
+            return median(speeds)
         return max(0.0, robust_line_value(times, speeds, min(time_s, times[-1] + MAX_EXTRAPOLATION_S)))
 
     def _fit_window(self, interval_s: float) -> None:
         """Size the history to span ``window_s`` at the recent frame interval (never below MIN_WINDOW)."""
         self._intervals_s.append(interval_s)
-        size = max(MIN_WINDOW, int(round(self.window_s / float(np.median(self._intervals_s)))))
+        size = max(MIN_WINDOW, int(round(self.window_s / median(self._intervals_s))))
         if size != self._history.maxlen:
             self._history = deque(self._history, maxlen=size)
 

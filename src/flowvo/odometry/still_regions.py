@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowvo.odometry.median import median
+
 CELL_PX = 16  # at the reference width: a cell of the grid
 STILL_SHARE = 0.3  # a still cell's points moved less than this share of the step's median motion, on average: the
 # real dash-cam's bonnet 0.18-0.27 in the road grid (whose near rows move more than its median: 0.86-1.95 on real
@@ -60,7 +62,7 @@ class StillRegions:
         still cells changed."""
         if not len(motion_px):
             return False
-        scene_px = float(np.median(motion_px))
+        scene_px = median(motion_px)
         if scene_px < self.min_scene_px:
             return False
         cells = self._cells(points_px)

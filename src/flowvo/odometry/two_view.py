@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
-from flowvo.geometry import skew
+from flowvo.geometry import cross, skew
 
 TENSOR_BLOCK_PX = 3  # the structure tensor's window (5 px: synthetic replays 08-10 1.88 against 1.35 %)
 
@@ -128,12 +128,14 @@ def essential_motion(points_prev: np.ndarray, points_next: np.ndarray, K: np.nda
     R_a, R_b, t = cv2.decomposeEssentialMat(E)
     rays_prev, rays_next = _rays(points_prev[inliers], K), _rays(points_next[inliers], K)
     best, best_count = None, -1
-    for R, t_dir in ((R_a, t[:, 0]), (R_a, -t[:, 0]), (R_b, t[:, 0]), (R_b, -t[:, 0])):
-        candidate = EssentialMotion(R, t_dir / np.linalg.norm(t_dir), inliers)
-        depth_prev, depth_next = _depths(rays_prev, rays_next, candidate)
-        count = int(((depth_prev > 0) & (depth_next > 0)).sum())
-        if count > best_count:
-            best, best_count = candidate, count
+    t_dir = t[:, 0] / np.linalg.norm(t[:, 0])
+    for R in (R_a, R_b):
+        depth_prev, depth_next = _depths(rays_prev, rays_next, EssentialMotion(R, t_dir, inliers))
+        # the depths are linear in t: with -t they change sign, exactly
+        for sign, count in ((1.0, ((depth_prev > 0) & (depth_next > 0)).sum()),
+                            (-1.0, ((depth_prev < 0) & (depth_next < 0)).sum())):
+            if count > best_count:
+                best, best_count = EssentialMotion(R, sign * t_dir, inliers), int(count)
     if best_count < min_inliers:
         return None
     return best if robust_scale_px is None else _refitted(rays_prev, rays_next, K, best, robust_scale_px)
@@ -179,7 +181,7 @@ def _refitted(rays_prev: np.ndarray, rays_next: np.ndarray, K: np.ndarray, fit: 
     basis = np.stack([side, t_cross @ side])  # unit vectors orthogonal to t
     jacobian = np.empty((len(rotated), 5))
     jacobian[:, :3] = (rotated @ t)[:, None] * rays_next - (rays_next * rotated).sum(axis=1)[:, None] * t
-    jacobian[:, 3:] = np.cross(rotated, rays_next) @ basis.T  # r2 . (b x R r1) = (R r1 x r2) . b
+    jacobian[:, 3:] = cross(rotated, rays_next) @ basis.T  # r2 . (b x R r1) = (R r1 x r2) . b
     jacobian /= denominator[:, None]
     update = np.zeros(5)
     for _ in range(reweightings):
@@ -252,8 +254,8 @@ def direction_given_rotation(points_prev: np.ndarray, points_next: np.ndarray, K
     epipolar line (pixels), the lines' scale taken from ``near`` (a unit direction close to the answer), which
     also gives the sign. The constraint ``r2 . (t x R r1) = t . (R r1 x r2) = 0`` is linear in ``t``."""
     rotated = _rays(points_prev, K) @ R.T
-    normals = np.cross(rotated, _rays(points_next, K))  # t . normal: the line's value at the second point
-    lines = np.cross(near, rotated) @ _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
+    normals = cross(rotated, _rays(points_next, K))  # t . normal: the line's value at the second point
+    lines = cross(near, rotated) @ _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
     weighted = normals / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12)[:, None]  # rows in pixels
     t = np.linalg.svd(weighted, full_matrices=False)[2][-1]
     return t if t @ near >= 0 else -t
