@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowvo.geometry import cross
-from flowvo.odometry.median import median
+from flowvo.odometry.quantiles import median
 
 MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 

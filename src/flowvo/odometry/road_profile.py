@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.odometry.median import median
+from flowvo.odometry.quantiles import median
 from flowvo.odometry.road_plane import MIN_ROAD_POINTS, RoadPlane
 
 DEPTH_EDGES_H = np.array([5.0, 7.0, 10.0, 14.0, 20.0])  # the cells' depth bands (camera heights ahead; below the

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.camera import mounting_rotation
+from flowvo.odometry.quantiles import percentile
 from flowvo.odometry.road_plane import (
     MAX_ROAD_TILT_RAD,
     MIN_ROAD_INLIER_FRACTION,
@@ -153,8 +154,8 @@ def road_flow_within_reach(road_motion_px: np.ndarray, reach_px: float, predicte
         return True
     if not len(road_motion_px):
         return False
-    percentile = NEAR_ROAD_PERCENTILE if steps == 1 else 50
-    return float(np.percentile(road_motion_px, percentile)) < reach_px
+    q = NEAR_ROAD_PERCENTILE if steps == 1 else 50
+    return percentile(road_motion_px, q) < reach_px
 
 
 def road_step_length_m(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
@@ -195,7 +196,7 @@ def near_road_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: n
     of the road correspondences' (N, 2) translation parallax (0 without any)."""
     if not len(points_prev):
         return 0.0
-    return float(np.percentile(translation_parallax_px(points_prev, points_next, K, R), NEAR_ROAD_PERCENTILE))
+    return percentile(translation_parallax_px(points_prev, points_next, K, R), NEAR_ROAD_PERCENTILE)
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own

@@ -40,7 +40,7 @@ from typing import NamedTuple
 import numpy as np
 
 from flowvo.geometry import invert_se3, rotation_angle_between_rad
-from flowvo.odometry.median import median
+from flowvo.odometry.quantiles import median
 from flowvo.odometry.speed_prior import SPEED_HORIZON_S
 from flowvo.odometry.two_view import se3_next_prev
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.odometry.median import median
+from flowvo.odometry.quantiles import median
 
 CELL_PX = 16  # at the reference width: a cell of the grid
 STILL_SHARE = 0.3  # a still cell's points moved less than this share of the step's median motion, on average: the
@@ -53,8 +53,8 @@ class StillRegions:
         # them and the rows of a bonnet's band (``BAND_ROW_SHARE``)
 
     def _cells(self, points_px: np.ndarray) -> np.ndarray:
-        rows = np.clip((points_px[:, 1] // self.cell_px).astype(np.int64), 0, self.shape[0] - 1)
-        columns = np.clip((points_px[:, 0] // self.cell_px).astype(np.int64), 0, self.shape[1] - 1)
+        rows = np.minimum(np.maximum((points_px[:, 1] // self.cell_px).astype(np.int64), 0), self.shape[0] - 1)
+        columns = np.minimum(np.maximum((points_px[:, 0] // self.cell_px).astype(np.int64), 0), self.shape[1] - 1)
         return rows * self.shape[1] + columns
 
     def observe(self, points_px: np.ndarray, motion_px: np.ndarray) -> bool:

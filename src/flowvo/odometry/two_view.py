@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+from scipy.linalg.lapack import dgesv
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
@@ -39,11 +40,14 @@ def textured_points(image: np.ndarray, count: int = 600, cell_px: int = 8) -> np
     cells = magnitude[4 : 4 + rows * cell_px, 4 : 4 + cols * cell_px]
     cells = cells.reshape(rows, cell_px, cols, cell_px).transpose(0, 2, 1, 3).reshape(rows, cols, -1)
     best = cells.argmax(axis=2)
-    strength = np.take_along_axis(cells, best[..., None], axis=2)[..., 0]
-    order = np.argsort(strength, axis=None)[::-1][:count]
-    r, c = np.unravel_index(order, strength.shape)
-    b = best[r, c]
-    return np.stack([4 + c * cell_px + b % cell_px, 4 + r * cell_px + b // cell_px], axis=1).astype(np.float32)
+    strength = cells.reshape(rows * cols, -1)[np.arange(rows * cols), best.ravel()]  # each cell's maximum
+    order = np.argsort(strength)[::-1][:count]
+    r, c = np.divmod(order, cols)
+    b = best.ravel()[order]
+    points = np.empty((len(order), 2), np.float32)
+    points[:, 0] = 4 + c * cell_px + b % cell_px
+    points[:, 1] = 4 + r * cell_px + b // cell_px
+    return points
 
 
 def no_image_area(image: np.ndarray, margin_px: int = 6) -> np.ndarray:
@@ -184,13 +188,27 @@ def _refitted(rays_prev: np.ndarray, rays_next: np.ndarray, K: np.ndarray, fit: 
     jacobian[:, 3:] = cross(rotated, rays_next) @ basis.T  # r2 . (b x R r1) = (R r1 x r2) . b
     jacobian /= denominator[:, None]
     update = np.zeros(5)
-    for _ in range(reweightings):
-        weighted = jacobian / (1.0 + ((distance_px + jacobian @ update) / scale_px) ** 2)[:, None]
-        update = np.linalg.solve(weighted.T @ jacobian, -weighted.T @ distance_px)
+    weighted = np.empty_like(jacobian)
+    for _ in range(reweightings):  # in place, and LAPACK's solver called directly: 0.3 -> 0.2 ms a fit
+        weight = jacobian @ update
+        weight += distance_px
+        weight /= scale_px
+        weight *= weight
+        weight += 1.0
+        np.divide(jacobian, weight[:, None], out=weighted)
+        update = _solved(weighted.T @ jacobian, -(weighted.T @ distance_px))
     if max(np.linalg.norm(update[:3]), np.linalg.norm(update[3:])) > MAX_REFIT_RAD:
         return fit
     t = t + update[3] * basis[0] + update[4] * basis[1]
     return EssentialMotion(cv2.Rodrigues(update[:3])[0] @ R, t / np.linalg.norm(t), fit.inliers)
+
+
+def _solved(A: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.linalg.solve(A, b)`` of a small square system (the same LAPACK routine, gesv, without NumPy's wrapper)."""
+    _, _, x, info = dgesv(A, b)
+    if info:
+        raise np.linalg.LinAlgError("Singular matrix")
+    return x
 
 
 def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, direction: np.ndarray,
