@@ -34,7 +34,7 @@ from flowvo.methods.geometry_frames import GeometryFlow, GeometryFrame
 from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
 from flowvo.odometry.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.odometry.motion_checks import MotionChecks
-from flowvo.odometry.quantiles import median
+from flowvo.odometry.numeric import median
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength

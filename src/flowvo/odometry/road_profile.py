@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.odometry.quantiles import median
+from flowvo.odometry.numeric import median
 from flowvo.odometry.road_plane import MIN_ROAD_POINTS, RoadPlane
 
 DEPTH_EDGES_H = np.array([5.0, 7.0, 10.0, 14.0, 20.0])  # the cells' depth bands (camera heights ahead; below the
@@ -66,8 +66,8 @@ def road_residuals(points: np.ndarray, plane: RoadPlane) -> np.ndarray:
 def cell_medians(residuals: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """The median of ``residuals`` (N,) in each of the ``CELLS`` cells (``cells`` (N,): each one's index), NaN where
     a cell holds fewer than ``MIN_CELL_POINTS`` (sorted once: no loop over the cells)."""
-    order = np.lexsort((residuals, cells))
-    ordered = residuals[order]
+    by_residual = np.argsort(residuals)  # then by cell, stable (a radix sort of 16-bit cells): np.lexsort's order
+    ordered = residuals[by_residual][np.argsort(cells[by_residual].astype(np.int16), kind="stable")]
     counts = np.bincount(cells, minlength=CELLS)
     starts = np.cumsum(counts) - counts
     medians = np.full(CELLS, np.nan)

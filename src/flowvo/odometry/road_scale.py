@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.camera import mounting_rotation
-from flowvo.odometry.quantiles import percentile
+from flowvo.odometry.numeric import percentile
 from flowvo.odometry.road_plane import (
     MAX_ROAD_TILT_RAD,
     MIN_ROAD_INLIER_FRACTION,

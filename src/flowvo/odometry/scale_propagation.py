@@ -18,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from flowvo.odometry.quantiles import median
+from flowvo.odometry.numeric import median
 from flowvo.odometry.two_view import EssentialMotion, pair_depths, translation_parallax_px
 
 MIN_PARALLAX_PX = 2.0  # at the reference width: translation parallax below this leaves the depth too uncertain

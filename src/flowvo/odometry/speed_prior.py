@@ -12,7 +12,7 @@ from collections import deque
 
 import numpy as np
 
-from flowvo.odometry.quantiles import median
+from flowvo.odometry.numeric import median
 
 SPEED_WINDOW_S = 0.9  # the robust line's span: nine frames at KITTI's 10 Hz, where it was tuned
 MIN_WINDOW = 9  # measurements in the line at least (lower frame rates span more time, as tuned on 5-10 Hz)

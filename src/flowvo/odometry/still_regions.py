@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from flowvo.odometry.quantiles import median
+from flowvo.odometry.numeric import median
 
 CELL_PX = 16  # at the reference width: a cell of the grid
 STILL_SHARE = 0.3  # a still cell's points moved less than this share of the step's median motion, on average: the

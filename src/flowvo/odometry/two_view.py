@@ -14,11 +14,11 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy.linalg.lapack import dgesv
 from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from flowvo.geometry import cross, skew
+from flowvo.odometry.numeric import solved
 
 TENSOR_BLOCK_PX = 3  # the structure tensor's window (5 px: synthetic replays 08-10 1.88 against 1.35 %)
 
@@ -196,19 +196,11 @@ def _refitted(rays_prev: np.ndarray, rays_next: np.ndarray, K: np.ndarray, fit: 
         weight *= weight
         weight += 1.0
         np.divide(jacobian, weight[:, None], out=weighted)
-        update = _solved(weighted.T @ jacobian, -(weighted.T @ distance_px))
+        update = solved(weighted.T @ jacobian, -(weighted.T @ distance_px))
     if max(np.linalg.norm(update[:3]), np.linalg.norm(update[3:])) > MAX_REFIT_RAD:
         return fit
     t = t + update[3] * basis[0] + update[4] * basis[1]
     return EssentialMotion(cv2.Rodrigues(update[:3])[0] @ R, t / np.linalg.norm(t), fit.inliers)
-
-
-def _solved(A: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.linalg.solve(A, b)`` of a small square system (the same LAPACK routine, gesv, without NumPy's wrapper)."""
-    _, _, x, info = dgesv(A, b)
-    if info:
-        raise np.linalg.LinAlgError("Singular matrix")
-    return x
 
 
 def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, direction: np.ndarray,

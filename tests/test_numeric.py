@@ -1,6 +1,7 @@
 import numpy as np
+import pytest
 
-from flowvo.odometry.quantiles import median, percentile
+from flowvo.odometry.numeric import median, percentile, solved
 
 
 def test_median_is_numpys_exactly():
@@ -27,3 +28,14 @@ def test_percentile_is_numpys_exactly_in_either_precision():
                 assert percentile(values, q) == float(np.percentile(values, q))
     assert percentile(np.array([0.0, 10.0]), 90) == 9.0
     assert np.isnan(percentile(np.array([1.0, np.nan, 3.0]), 90))
+
+
+def test_solved_is_numpys_solve_and_refuses_a_singular_system():
+    rng = np.random.default_rng(2)
+    for size in (2, 5, 20):
+        for _ in range(50):
+            A, b = rng.normal(size=(size, size)), rng.normal(size=size)
+            A = A @ A.T + 0.1 * np.eye(size)
+            np.testing.assert_allclose(solved(A, b), np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
+    with pytest.raises(np.linalg.LinAlgError):
+        solved(np.ones((3, 3)), np.ones(3))
