@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from flowvo.odometry.numeric import median, percentile, solved
+from flowvo.odometry.numeric import median, percentile, row_norms, solved
 
 
 def test_median_is_numpys_exactly():
@@ -39,3 +39,11 @@ def test_solved_is_numpys_solve_and_refuses_a_singular_system():
             np.testing.assert_allclose(solved(A, b), np.linalg.solve(A, b), rtol=1e-10, atol=1e-12)
     with pytest.raises(np.linalg.LinAlgError):
         solved(np.ones((3, 3)), np.ones(3))
+
+
+def test_row_norms_are_numpys_exactly():
+    rng = np.random.default_rng(4)
+    for dtype in (np.float64, np.float32):
+        vectors = rng.normal(size=(300, 2)).astype(dtype)
+        np.testing.assert_array_equal(row_norms(vectors), np.linalg.norm(vectors, axis=1))
+    np.testing.assert_array_equal(row_norms(np.array([[3.0, 4.0, 12.0]])), [13.0])

@@ -34,7 +34,7 @@ from flowvo.methods.geometry_frames import GeometryFlow, GeometryFrame
 from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
 from flowvo.odometry.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.odometry.motion_checks import MotionChecks
-from flowvo.odometry.numeric import median
+from flowvo.odometry.numeric import median, row_norms
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
@@ -193,7 +193,7 @@ class FlowGeometryStep(WorkingFrames):
         moved, found = lucas_kanade(previous.image, working, start, TRACK_WINDOW_PX)  # one call: each point is
         # tracked alone
         tracked_prev, tracked_next = start[:count][found[:count]], moved[:count][found[:count]]
-        self.still_tracks.observe(tracked_prev, np.linalg.norm(tracked_next - tracked_prev, axis=1))
+        self.still_tracks.observe(tracked_prev, row_norms(tracked_next - tracked_prev))
         if self.still_tracks.still_cells:  # no new tracks from a bonnet, a dashboard, a watermark
             textured = textured[self.still_tracks.keep(textured)]
         pair = self.road.undistort(tracked_prev), self.road.undistort(tracked_next)
@@ -261,7 +261,7 @@ class FlowGeometryStep(WorkingFrames):
         self._keep_landmarks(times_s[0], previous, time_s, flow.current)
         last_step, self._last_step, self._step_scale = self._last_step, None, None
         span = self.road_key.begin(previous, times_s[0], flow.key_prev is None)
-        road_motion_px = np.linalg.norm(flow.road_next - flow.road_prev, axis=1)
+        road_motion_px = row_norms(flow.road_next - flow.road_prev)
         road_moved_px = median(road_motion_px) if len(road_motion_px) else 0.0
         road_measured = road_flow_within_reach(road_motion_px, self.dis_reach_px, span.predicted, span.steps)
         step_px = self._step_motion_px(flow, road_moved_px / span.steps)
@@ -321,7 +321,7 @@ class FlowGeometryStep(WorkingFrames):
     def _step_motion_px(flow: GeometryFlow, road_step_px: float) -> float:
         """How far the step moved the view (working pixels): the larger of the road's median motion per step
         (``road_step_px``) and the tracked points' median motion (the road's alone without tracks)."""
-        moved_px = np.linalg.norm(flow.motion_next - flow.motion_prev, axis=1)
+        moved_px = row_norms(flow.motion_next - flow.motion_prev)
         return max(road_step_px, median(moved_px)) if len(moved_px) else road_step_px
 
     def _creeping(self, fit: EssentialMotion) -> EssentialMotion:

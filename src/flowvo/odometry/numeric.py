@@ -41,6 +41,12 @@ def percentile(values: np.ndarray, q: float) -> float:
     return float(above - gap * (1 - share) if share >= 0.5 else below + gap * share)
 
 
+def row_norms(vectors: np.ndarray) -> np.ndarray:
+    """The length of each row of ``vectors`` (N, D): ``np.linalg.norm(vectors, axis=1)``, the same sum of squares
+    and root."""
+    return np.sqrt((vectors * vectors).sum(axis=1))
+
+
 def solved(A: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``np.linalg.solve(A, b)`` of a small square system: the same LAPACK routine (gesv), called directly. SciPy's
     and NumPy's builds gave identical solutions of 5x5 systems here, and differed in the last bits from 6x6 up."""

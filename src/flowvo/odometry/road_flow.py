@@ -11,6 +11,7 @@ import numpy as np
 
 from flowvo.camera import Camera, distort_points, undistort_points
 from flowvo.flow.registry import create_estimator
+from flowvo.odometry.numeric import row_norms
 from flowvo.odometry.road_scale import (
     GRID_MARGIN_PX,
     ROAD_CROP_HALF_WIDTH,
@@ -90,7 +91,7 @@ class RoadFlow:
         distortion the warp goes through the lens. ``unpredicted``: :meth:`unpredicted` of the same frames where it
         was made already (without a prediction), so that DIS does not measure it twice."""
         moved = self._moved(previous, current, prediction) if unpredicted is None else unpredicted
-        if self.still.observe(self.grid_px, np.linalg.norm(moved - self.grid_undistorted_px, axis=1)):
+        if self.still.observe(self.grid_px, row_norms(moved - self.grid_undistorted_px)):
             self._keep = self.still.keep(self.grid_px) if self.still.still_cells else None
         if self._keep is None:
             return road_points_in_view(self.grid_undistorted_px, moved, self.working_hw)

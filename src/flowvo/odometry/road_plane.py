@@ -44,7 +44,7 @@ class RoadPlane:
     @property
     def tilt_rad(self) -> float:
         """Angle between the plane's normal and the camera's down axis (pitch and roll of the road)."""
-        return float(np.arccos(np.clip(self.normal[1], -1.0, 1.0)))
+        return float(np.arccos(min(max(self.normal[1], -1.0), 1.0)))
 
 
 @functools.lru_cache(maxsize=512)

@@ -109,7 +109,7 @@ class RoadProfile:
             ordered = np.sort(self._medians[:, judged], axis=0)
             count, columns = np.minimum(self._seen[judged], PROFILE_STEPS), np.arange(judged.sum())
             self.medians[judged] = (ordered[(count - 1) // 2, columns] + ordered[count // 2, columns]) / 2
-        self.off_road[:] = np.abs(np.nan_to_num(self.medians)) > OFF_ROAD_SHARE
+        self.off_road[:] = np.abs(self.medians) > OFF_ROAD_SHARE  # a NaN (not judged) is not off the road
 
     def forget(self) -> None:
         """Start afresh: nothing is off the road until cells are judged again."""

@@ -23,7 +23,7 @@ from flowvo.odometry.road_plane import (
 )
 from flowvo.odometry.road_profile import RoadProfile
 from flowvo.odometry.road_tally import RoadPlaneTally
-from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px, triangulate
+from flowvo.odometry.two_view import EssentialMotion, inverse_intrinsics, translation_parallax_px, triangulate
 
 ROAD_ROWS = (0.10, 0.45)  # the road grid's rows below the principal point, in frame heights (KITTI: 7-32 m ahead)
 ROAD_HALF_WIDTH = 0.2  # the road grid's half width around the principal point, in frame widths
@@ -170,7 +170,7 @@ def road_homography(K: np.ndarray, motion: EssentialMotion, plane: RoadPlane) ->
     """The 3x3 homography that maps pixels of road points in the first frame to the second (ideal pinhole
     pixels): ``K (R + t n^T / d) K^-1``, with the plane ``n . X = d`` in the first camera's frame and the
     motion's unit translation (the plane's distance is in the same units)."""
-    return K @ (motion.R + np.outer(motion.t_dir, plane.normal) / plane.distance) @ np.linalg.inv(K)
+    return K @ (motion.R + np.outer(motion.t_dir, plane.normal) / plane.distance) @ inverse_intrinsics(K)
 
 
 def onward_road_homography(K: np.ndarray, plane: RoadPlane, key_motion: EssentialMotion, key_length_m: float,
@@ -181,14 +181,14 @@ def onward_road_homography(K: np.ndarray, plane: RoadPlane, key_motion: Essentia
     road (its normal; the road lies ``height_m`` metres below the key frame's camera)."""
     R = step_motion.R @ key_motion.R
     t_m = step_motion.R @ key_motion.t_dir * key_length_m + step_motion.t_dir * step_length_m
-    return K @ (R + np.outer(t_m, plane.normal) / height_m) @ np.linalg.inv(K)
+    return K @ (R + np.outer(t_m, plane.normal) / height_m) @ inverse_intrinsics(K)
 
 
 def metric_road_homography(K: np.ndarray, T_next_key: np.ndarray, normal: np.ndarray, height_m: float) -> np.ndarray:
     """The road homography from a key frame to a later frame (ideal pinhole pixels) under the metric motion
     ``T_next_key`` (4x4, the key frame's points into the later frame's), the road ``height_m`` metres below the key
     frame's camera along ``normal`` (unit, the key frame's camera frame)."""
-    return K @ (T_next_key[:3, :3] + np.outer(T_next_key[:3, 3], normal) / height_m) @ np.linalg.inv(K)
+    return K @ (T_next_key[:3, :3] + np.outer(T_next_key[:3, 3], normal) / height_m) @ inverse_intrinsics(K)
 
 
 def near_road_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, R: np.ndarray) -> float:

@@ -18,7 +18,7 @@ from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from flowvo.geometry import cross, skew
-from flowvo.odometry.numeric import solved
+from flowvo.odometry.numeric import row_norms, solved
 
 TENSOR_BLOCK_PX = 3  # the structure tensor's window (5 px: synthetic replays 08-10 1.88 against 1.35 %)
 
@@ -224,7 +224,7 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     normals = np.cross(direction, _rays(points_prev, K))  # of the epipolar planes, first camera's frame
     next_px = np.ones((len(points_next), 3))
     next_px[:, :2] = points_next
-    inverse_K = _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
+    inverse_K = inverse_intrinsics(K)
     next_rays = next_px @ inverse_K.T
 
     def distances_px(rotations: np.ndarray) -> np.ndarray:
@@ -265,7 +265,7 @@ def direction_given_rotation(points_prev: np.ndarray, points_next: np.ndarray, K
     also gives the sign. The constraint ``r2 . (t x R r1) = t . (R r1 x r2) = 0`` is linear in ``t``."""
     rotated = _rays(points_prev, K) @ R.T
     normals = cross(rotated, _rays(points_next, K))  # t . normal: the line's value at the second point
-    lines = cross(near, rotated) @ _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes())
+    lines = cross(near, rotated) @ inverse_intrinsics(K)
     weighted = normals / np.maximum(np.hypot(lines[:, 0], lines[:, 1]), 1e-12)[:, None]  # rows in pixels
     t = np.linalg.svd(weighted, full_matrices=False)[2][-1]
     return t if t @ near >= 0 else -t
@@ -283,13 +283,18 @@ def _rays(points_px: np.ndarray, K: np.ndarray) -> np.ndarray:
     """Viewing rays (N, 3) with z = 1 of pixels (N, 2)."""
     homogeneous = np.ones((len(points_px), 3))
     homogeneous[:, :2] = points_px
-    return homogeneous @ _inverse_intrinsics(np.ascontiguousarray(K, dtype=np.float64).tobytes()).T
+    return homogeneous @ inverse_intrinsics(K).T
+
+
+def inverse_intrinsics(K: np.ndarray) -> np.ndarray:
+    """The inverse of the 3x3 intrinsics ``K`` (read-only; a drive has one camera: inverted once, not at each of
+    the ~14 ray computations and homographies of a frame)."""
+    return _inverse_of(np.ascontiguousarray(K, dtype=np.float64).tobytes())
 
 
 @functools.lru_cache(maxsize=8)
-def _inverse_intrinsics(K_bytes: bytes) -> np.ndarray:
-    """The inverse of the 3x3 float64 intrinsics given as bytes (a drive has one camera: inverted once,
-    not at each of the ~11 ray computations per frame)."""
+def _inverse_of(K_bytes: bytes) -> np.ndarray:
+    """:func:`inverse_intrinsics` of the 3x3 float64 intrinsics given as bytes."""
     inverse = np.linalg.inv(np.frombuffer(K_bytes).reshape(3, 3))
     inverse.flags.writeable = False
     return inverse
@@ -302,7 +307,7 @@ def translation_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K:
     rotated = _rays(points_prev, K) @ R.T @ K.T
     with np.errstate(divide="ignore", invalid="ignore"):
         rotated_px = rotated[:, :2] / rotated[:, 2:3]
-    return np.linalg.norm(points_next - rotated_px, axis=1)
+    return row_norms(points_next - rotated_px)
 
 
 def pair_depths(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion
