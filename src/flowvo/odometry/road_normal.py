@@ -106,8 +106,9 @@ class RoadNormal:
         if keep:
             self.normal, self.variance, self.place_m = R_current_plane @ normal, blended, place_m
             at = int(np.searchsorted(self._ahead_places_m, place_m, side="right"))
-            self._ahead_normals = np.insert(self._ahead_normals, at, self.normal, axis=0)
-            self._ahead_places_m = np.insert(self._ahead_places_m, at, place_m)
+            normals, places_m = self._ahead_normals, self._ahead_places_m  # inserted at ``at`` (np.insert: 57 us)
+            self._ahead_normals = np.concatenate([normals[:at], self.normal[None], normals[at:]])
+            self._ahead_places_m = np.concatenate([places_m[:at], [place_m], places_m[at:]])
         if under is None or place_m <= key_place_m:
             return ahead
         under = R_current_plane.T @ under
