@@ -44,7 +44,8 @@ class DisFlow:
             getattr(self._dis, f"set{setting}")(value)
 
     def estimate(self, prev: np.ndarray, next: np.ndarray) -> np.ndarray:
-        return self._dis.calc(np.ascontiguousarray(prev), np.ascontiguousarray(next), None).astype(np.float32)
+        flow = self._dis.calc(np.ascontiguousarray(prev), np.ascontiguousarray(next), None)
+        return flow.astype(np.float32, copy=False)  # DIS gives float32: no copy
 
     def params(self) -> dict:
         return {"preset": self.name, "opencv": cv2.__version__}
