@@ -66,7 +66,8 @@ def road_residuals(points: np.ndarray, plane: RoadPlane) -> np.ndarray:
 def cell_medians(residuals: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """The median of ``residuals`` (N,) in each of the ``CELLS`` cells (``cells`` (N,): each one's index), NaN where
     a cell holds fewer than ``MIN_CELL_POINTS`` (sorted once: no loop over the cells)."""
-    by_residual = np.argsort(residuals)  # then by cell, stable (a radix sort of 16-bit cells): np.lexsort's order
+    by_residual = np.argsort(residuals)  # then by cell, stable (a radix sort of 16-bit cells): the residuals
+    # in np.lexsort's order, at a third of its cost
     ordered = residuals[by_residual][np.argsort(cells[by_residual].astype(np.int16), kind="stable")]
     counts = np.bincount(cells, minlength=CELLS)
     starts = np.cumsum(counts) - counts
