@@ -14,9 +14,10 @@ def test_median_is_numpys_exactly():
     assert median(np.array([0.1, 0.7])) == (0.1 + 0.7) / 2
 
 
-def test_median_of_values_with_a_nan_is_nan_as_numpys():
+def test_median_of_values_with_a_nan_or_of_none_is_nan_as_numpys():
     for values in (np.array([1.0, np.nan, 2.0]), np.array([np.nan, 5.0, 1.0, 2.0])):
         assert np.isnan(median(values)) and np.isnan(np.median(values))
+    assert np.isnan(median(np.zeros(0)))
 
 
 def test_percentile_is_numpys_exactly_in_either_precision():
@@ -28,6 +29,8 @@ def test_percentile_is_numpys_exactly_in_either_precision():
                 assert percentile(values, q) == float(np.percentile(values, q))
     assert percentile(np.array([0.0, 10.0]), 90) == 9.0
     assert np.isnan(percentile(np.array([1.0, np.nan, 3.0]), 90))
+    with pytest.raises(IndexError):
+        percentile(np.zeros(0), 50)
 
 
 def test_solved_is_numpys_solve_and_refuses_a_singular_system():

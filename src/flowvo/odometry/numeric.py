@@ -13,8 +13,10 @@ from scipy.linalg.lapack import dgesv
 
 
 def median(values: np.ndarray) -> float:
-    """The median of ``values`` (N,), N >= 1: the middle value, or the mean of the two middle ones; NaN where a
-    value is NaN."""
+    """The median of ``values`` (N,): the middle value, or the mean of the two middle ones; NaN where a value is NaN
+    or there is none (as ``np.median``, without its warning)."""
+    if not len(values):
+        return float("nan")
     middle = len(values) // 2
     odd = len(values) % 2 == 1
     part = np.partition(values, (middle, -1) if odd else (middle - 1, middle, -1))
@@ -24,9 +26,11 @@ def median(values: np.ndarray) -> float:
 
 
 def percentile(values: np.ndarray, q: float) -> float:
-    """The ``q``-th percentile (0..100) of floating-point ``values`` (N,), N >= 1, interpolated linearly between the
+    """The ``q``-th percentile (0..100) of floating-point ``values`` (N,), interpolated linearly between the
     two order statistics around position ``(N - 1) q / 100`` (the fraction as a Python float, so that float32 values
-    are interpolated in float32); NaN where a value is NaN."""
+    are interpolated in float32); NaN where a value is NaN. Like ``np.percentile``, refuses an empty array."""
+    if not len(values):
+        raise IndexError("the percentile of no values")
     last = len(values) - 1
     position = last * np.float64(q / 100)
     lower = min(int(np.floor(position)), last)
