@@ -226,7 +226,7 @@ class FlowGeometryStep(WorkingFrames):
         if key is previous and self.road_key.prediction is None and self.speed.last_speed_mps is None and \
                 current.pair_fit is not None:
             unpredicted = self.road.unpredicted(previous.image, current.image)
-            if not road_flow_within_reach(np.linalg.norm(unpredicted - self.road.grid_undistorted_px, axis=1),
+            if not road_flow_within_reach(row_norms(unpredicted - self.road.grid_undistorted_px),
                                           self.dis_reach_px, predicted=False):
                 self.road_key.prediction, unpredicted = self._swept_prediction(previous, current), None
         road = self.road.measure(key.image, current.image, self.road_key.prediction, unpredicted)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowvo.geometry import cross
-from flowvo.odometry.numeric import median
+from flowvo.odometry.numeric import median, row_norms
 
 MIN_ROAD_POINTS = 20  # a plane through fewer road points is not trusted
 
@@ -72,7 +72,7 @@ def fit_road_plane(points: np.ndarray, iterations: int = 64, min_normal_y: float
         return None
     triples = points[_triple_rows(len(points), iterations, seed)]
     normals = cross(triples[:, 1] - triples[:, 0], triples[:, 2] - triples[:, 0])
-    norms = np.linalg.norm(normals, axis=1)
+    norms = row_norms(normals)
     usable = norms > 1e-12
     normals = normals[usable] / norms[usable, None]
     normals *= np.sign(normals[:, 1:2] + 1e-12)

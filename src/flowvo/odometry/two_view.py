@@ -91,7 +91,7 @@ def track_points_checked(previous: np.ndarray, current: np.ndarray, points_px: n
     compression block)."""
     moved, found = lucas_kanade(previous, current, points_px)
     back, found_back = lucas_kanade(current, previous, moved)
-    returned = np.linalg.norm(back - points_px.reshape(-1, 2), axis=1) <= max_return_px
+    returned = row_norms(back - points_px.reshape(-1, 2)) <= max_return_px
     return moved, found & found_back & returned
 
 
@@ -221,7 +221,7 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     usable = np.isfinite(points_prev).all(axis=1) & np.isfinite(points_next).all(axis=1)
     if usable.sum() < min_inliers:
         return None
-    normals = np.cross(direction, _rays(points_prev, K))  # of the epipolar planes, first camera's frame
+    normals = cross(direction, _rays(points_prev, K))  # of the epipolar planes, first camera's frame
     next_px = np.ones((len(points_next), 3))
     next_px[:, :2] = points_next
     inverse_K = inverse_intrinsics(K)
@@ -238,7 +238,7 @@ def motion_along(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray
     rotations = np.broadcast_to(R_start, (hypotheses, 3, 3))
     for _ in range(2):
         m = np.einsum("hkj,hsj->hsk", rotations, normals[samples])  # R (d x r1), (H, 3, 3)
-        jacobian = np.cross(m, next_rays[samples])  # (H, 3 tracks, 3)
+        jacobian = cross(m, next_rays[samples])  # (H, 3 tracks, 3)
         residual = np.einsum("hsk,hsk->hs", m, next_rays[samples])
         solvable = np.abs(np.linalg.det(jacobian)) > 1e-12
         update = np.zeros((hypotheses, 3))
