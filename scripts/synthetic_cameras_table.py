@@ -14,7 +14,7 @@ render; row 0, KITTI's camera, is always run: the last column's reference)
 import argparse
 from pathlib import Path
 
-from flowvo.camera import LensDistortion
+from flowvo.camera import KITTI_CAMERA_HEIGHT_M, LensDistortion
 from flowvo.drive.options import RunOptions
 from flowvo.drive.run import run
 from flowvo.kitti.poses import read_kitti_poses
@@ -62,9 +62,14 @@ def main() -> None:
     parser.add_argument("--max-speed", type=float, default=12.0, help="top speed of the generated drive, m/s")
     parser.add_argument("--lengths", type=float, nargs="+", default=[25.0, 50.0, 75.0, 100.0])
     parser.add_argument("--rows", type=int, nargs="+", help="only these rows (0-based; row 0 always)")
+    parser.add_argument("--ground-texture-scale", type=float, default=1.0,
+                        help="the ground's texture this many times finer in every row (flowvo synth's option)")
+    parser.add_argument("--matched-ground-texture", action="store_true",
+                        help="each row's ground texture finer by KITTI's camera height over its own, so that every "
+                             "camera sees the ground's texture in pixels as KITTI's camera does")
     args = parser.parse_args()
     print(f"seed {args.seed}, {(args.frames - 1) / PATH_RATE_HZ:g} s drive, scale {args.scale:g}, sub-paths "
-          f"{' '.join(f'{m:g}' for m in args.lengths)} m")
+          f"{' '.join(f'{m:g}' for m in args.lengths)} m{_ground_texture_note(args)}")
     print("| camera | frames | t_err % | r_err deg/m | path length vs truth | t_err / KITTI camera's "
           "| road planes trusted / refused as tilted | pitch, roll taken from the drive (deg) |")
     print("| --- | --- | --- | --- | --- | --- | --- | --- |")
@@ -75,8 +80,11 @@ def main() -> None:
             continue
         root = rendered.get(camera, args.out / f"camera_{index}" / "data")
         if camera not in rendered:
+            texture_scale = args.ground_texture_scale * (
+                KITTI_CAMERA_HEIGHT_M / camera.height_m if args.matched_ground_texture else 1.0)
             synthesize(root, ["00"], seed=args.seed, frames=frames_spanning(args.frames, PATH_RATE_HZ, camera.fps),
-                       scale=args.scale, max_speed_mps=args.max_speed, camera=camera, force=True)  # the same drive
+                       scale=args.scale, max_speed_mps=args.max_speed, camera=camera, force=True,
+                       ground_texture_scale=texture_scale)  # the same drive
             rendered[camera] = root
         out = args.out / f"camera_{index}" / "run"
         pitch_deg = TOLD_PITCH_DEG.get(label)
@@ -84,6 +92,13 @@ def main() -> None:
                                  force=True, camera_pitch_deg=pitch_deg))
         reference = reference or summary["metrics"]["t_err_percent"]
         print(_row(label, summary, root, out, reference))
+
+
+def _ground_texture_note(args: argparse.Namespace) -> str:
+    """How the ground's texture was rendered, where not by default."""
+    notes = ([] if args.ground_texture_scale == 1.0 else [f"{args.ground_texture_scale:g} times finer"]) + \
+        (["finer by 1.65 m over each camera's height"] if args.matched_ground_texture else [])
+    return f", the ground's texture {' and '.join(notes)}" if notes else ""
 
 
 def _row(label: str, summary: dict, root: Path, out: Path, reference: float) -> str:

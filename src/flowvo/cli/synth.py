@@ -15,7 +15,8 @@ def command(args: argparse.Namespace) -> int:
     camera = SynthCamera(args.camera_height, args.fov, LensDistortion(args.distortion_model, tuple(args.distortion)),
                          args.fps, args.camera_pitch, bonnet_rows=args.bonnet, roll_deg=args.camera_roll)
     folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
-                         args.scene, args.gt_flow, args.workers, args.max_speed, args.force, camera)
+                         args.scene, args.gt_flow, args.workers, args.max_speed, args.force, camera,
+                         args.ground_texture_scale)
     for folder in folders:
         print(f"wrote {folder} (synthetic)")
     return 0
@@ -25,6 +26,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG
     from flowvo.synth.bonnet import MAX_BONNET_ROWS
     from flowvo.synth.synth_camera import MAX_ROLL_DEG, PATH_RATE_HZ
+    from flowvo.synth.textures import GROUND_TEXTURE_SCALE_RANGE
     from flowvo.synth.world import SCENE_TYPES
 
     p = sub.add_parser("synth", help="render synthetic driving sequences in the KITTI layout (exact GT)")
@@ -37,6 +39,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scale", type=IMAGE_SCALE, default=1.0, help="image scale: 1.0 = 1241x376, 0.5 = 620x188")
     p.add_argument("--scene", choices=SCENE_TYPES, help="one scene type throughout (default: varied stretches)")
     p.add_argument("--gt-flow", action="store_true", help="also write true forward flow to flow_gt/NNNNNN.npy")
+    p.add_argument("--ground-texture-scale", type=bounded(float, *GROUND_TEXTURE_SCALE_RANGE), default=1.0,
+                   metavar="F", help="the road's and the grass's texture F times finer (default 1): a camera 1/F times "
+                                     "as high sees it in pixels as KITTI's camera sees the default")
     camera = p.add_argument_group("camera (default KITTI's; calib.txt records what flowvo run needs)")
     camera.add_argument("--camera-height", type=bounded(float, 0.0, 10.0, low_open=True),
                         default=KITTI_CAMERA_HEIGHT_M, metavar="M",

@@ -15,6 +15,7 @@ from flowvo.synth.frame_rate import frames_spanning, path_frames_for
 from flowvo.synth.replay_path import consistent_heights, drivable_heights, levelled
 from flowvo.synth.sequence_writer import SynthSpec, intrinsics, spec_digest, write_sequence
 from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera, check_lens
+from flowvo.synth.textures import GROUND_TEXTURE_SCALE_RANGE
 
 DEFAULT_FRAMES = 400
 MAX_SCALE = 4.0  # 4964 x 1504 frames; beyond that a render needs more memory than a laptop has
@@ -28,17 +29,21 @@ def sequence_seed(seed: int, name: str) -> int:
 
 def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Path | None,
                   scale: float, scene: str | None, gt_flow: bool, max_speed_mps: float = 25.0,
-                  camera: SynthCamera | None = None) -> SynthSpec:
+                  camera: SynthCamera | None = None, ground_texture_scale: float = 1.0) -> SynthSpec:
     """The spec of one sequence: a replay of ``trajectory`` (a pose file, or a folder of NN.txt) or a
     generated drive, of ``frames`` frames at the camera's frame rate (default: the whole replay, or a
     generated drive of DEFAULT_FRAMES / 10 Hz seconds). The drive is a 10 Hz path either way; other frame
-    rates sample it in time (see :mod:`flowvo.synth.frame_rate`)."""
+    rates sample it in time (see :mod:`flowvo.synth.frame_rate`). ``ground_texture_scale``: the ground's texture that
+    many times finer than by default."""
     camera = camera or SynthCamera()
     _check_scale(scale, camera)
     if frames is not None and frames < 2:
         raise FlowvoError(f"--frames {frames}: a sequence needs at least 2 frames")
     if seed < 0 or not 0 < max_speed_mps <= 100:
         raise FlowvoError(f"--seed {seed} must be >= 0 and --max-speed {max_speed_mps:g} in (0, 100] m/s")
+    low, high = GROUND_TEXTURE_SCALE_RANGE
+    if not low <= ground_texture_scale <= high:
+        raise FlowvoError(f"--ground-texture-scale {ground_texture_scale:g}: use a scale in [{low:g}, {high:g}]")
     world_seed = sequence_seed(seed, name)
     path_frames = None if frames is None else path_frames_for(frames, PATH_RATE_HZ, camera.fps)
     if trajectory is not None:
@@ -58,7 +63,7 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
     else:
         T = generate_path(DEFAULT_FRAMES if frames is None else path_frames, world_seed,
                           PathConfig(max_speed_mps=max_speed_mps))
-    return SynthSpec(T, world_seed, scale, scene, gt_flow, camera, frames)
+    return SynthSpec(T, world_seed, scale, scene, gt_flow, camera, frames, ground_texture_scale)
 
 
 def _check_scale(scale: float, camera: SynthCamera) -> None:
@@ -127,9 +132,10 @@ def check_target(root: Path, specs: dict[str, SynthSpec], force: bool) -> list[s
 def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | None = None,
                trajectory: str | Path | None = None, scale: float = 1.0, scene: str | None = None,
                gt_flow: bool = False, workers: int | None = None, max_speed_mps: float = 25.0,
-               force: bool = False, camera: SynthCamera | None = None) -> list[Path]:
+               force: bool = False, camera: SynthCamera | None = None, ground_texture_scale: float = 1.0
+               ) -> list[Path]:
     """Write every named sequence under ``root`` in the KITTI layout, seen by ``camera`` (KITTI's by
-    default); returns their folders.
+    default), the ground's texture ``ground_texture_scale`` times finer than by default; returns their folders.
 
     Every plan is made (and every input read) before anything is written; see :func:`check_target` for
     when an existing ``root`` is refused, resumed or (``force``) partly replaced.
@@ -139,7 +145,8 @@ def synthesize(root: str | Path, names: list[str], seed: int = 0, frames: int | 
     repeated = sorted({name for name in canonical if canonical.count(name) > 1})
     if repeated:
         raise FlowvoError(f"sequence {' '.join(repeated)} given more than once")
-    specs = {name: plan_sequence(name, seed, frames, trajectory, scale, scene, gt_flow, max_speed_mps, camera)
+    specs = {name: plan_sequence(name, seed, frames, trajectory, scale, scene, gt_flow, max_speed_mps, camera,
+                                ground_texture_scale)
              for name in canonical}
     for name in check_target(root, specs, force):
         _clear_sequence(root, name)

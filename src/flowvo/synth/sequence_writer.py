@@ -42,7 +42,8 @@ class SynthSpec:
     """What to render for one sequence: the drive (``T_world_cam``, camera-to-world poses at the path's
     10 Hz, in the frame the world is built in: y down along gravity for a generated drive; the world
     follows it), the world seed and scene, the image scale, the camera, and how many
-    ``frames`` to render at the camera's frame rate (None: the whole drive)."""
+    ``frames`` to render at the camera's frame rate (None: the whole drive), and how many times finer than by default
+    the ground's texture is (:func:`flowvo.synth.textures.make_textures`)."""
 
     T_world_cam: np.ndarray
     seed: int
@@ -51,6 +52,7 @@ class SynthSpec:
     gt_flow: bool = False
     camera: SynthCamera = field(default_factory=SynthCamera)
     frames: int | None = None
+    ground_texture_scale: float = 1.0
 
     def frame_poses(self) -> np.ndarray:
         """Camera-to-world poses (F, 4, 4) of the rendered frames, at the camera's frame rate; the drive's
@@ -77,6 +79,8 @@ def spec_digest(spec: SynthSpec) -> str:
         digest.update(f"bonnet {spec.camera.bonnet_rows!r}".encode())
     if spec.camera.roll_deg:
         digest.update(f"roll {spec.camera.roll_deg!r}".encode())
+    if spec.ground_texture_scale != 1.0:
+        digest.update(f"ground texture {spec.ground_texture_scale!r}".encode())
     return digest.hexdigest()
 
 
@@ -106,8 +110,9 @@ def kitti_calibration(K: np.ndarray, camera: SynthCamera | None = None) -> Calib
 _worker_state: dict = {}
 
 
-def _init_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None) -> None:
-    _worker_state.update(world=world, textures=make_textures(seed), rays=rays, bonnet=bonnet)
+def _init_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None,
+                 ground_texture_scale: float = 1.0) -> None:
+    _worker_state.update(world=world, textures=make_textures(seed, ground_texture_scale), rays=rays, bonnet=bonnet)
 
 
 def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -116,10 +121,11 @@ def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return (image, depth) if state["bonnet"] is None else state["bonnet"].paint(image, depth)
 
 
-def _init_pool_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None) -> None:
+def _init_pool_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None,
+                      ground_texture_scale: float = 1.0) -> None:
     """A render process: Ctrl-C is left to the parent, which stops the pool and reports one line."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _init_worker(world, seed, rays, bonnet)
+    _init_worker(world, seed, rays, bonnet, ground_texture_scale)
 
 
 def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | None = None) -> Path:
@@ -140,6 +146,7 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
         "synthetic": True, "seed": spec.seed, "scene": spec.scene or "varied", "scale": spec.scale,
         "frames": len(poses), "generator": "flowvo synth", "spec_sha256": spec_digest(spec),
         "camera": camera.record(),
+        **({} if spec.ground_texture_scale == 1.0 else {"ground_texture_scale": spec.ground_texture_scale}),
     })
     world = build_world(spec.T_world_cam, spec.seed, spec.scene, camera.height_m)
     rays = pixel_rays(K, size, camera.distortion)
@@ -153,10 +160,11 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
         if workers > 1 and len(frames) > 4:
             # spawn, not fork: a forked child inherits OpenCV's thread pool in a locked state and hangs
             context = multiprocessing.get_context("spawn")
-            pool = stack.enter_context(context.Pool(workers, _init_pool_worker, (world, spec.seed, rays, bonnet)))
+            pool = stack.enter_context(context.Pool(workers, _init_pool_worker,
+                                                        (world, spec.seed, rays, bonnet, spec.ground_texture_scale)))
             results = pool.imap(_render_one, frames, chunksize=2)
         else:
-            _init_worker(world, spec.seed, rays, bonnet)
+            _init_worker(world, spec.seed, rays, bonnet, spec.ground_texture_scale)
             results = map(_render_one, frames)
         previous = None
         for i, (image, depth) in progress(zip(todo, results, strict=True), f"render {name}", len(todo), "frame"):
