@@ -23,6 +23,7 @@ OUT_OF_RANGE = [  # (sub-command and required arguments, option, bad values)
     ("synth --out {tmp}/s", "--seed", ["-1"]),
     ("synth --out {tmp}/s", "--workers", ["0", "-2"]),
     ("synth --out {tmp}/s", "--max-speed", ["0", "-5", "1e9"]),
+    ("synth --out {tmp}/s", "--ground-texture-scale", ["0", "-1", "nan", "inf", "5", "x"]),
     ("flow --data {data} --sequence 00", "--scale", ["0", "-0.5", "3", "nan"]),
     ("flow --data {data} --sequence 00 --visualize {tmp}/v", "--every", ["0", "-1"]),
     ("run --data {data} --sequence 00 --out {tmp}/r", "--max-frames", ["0", "1", "-3"]),
