@@ -97,7 +97,7 @@ def main() -> None:
 def _ground_texture_note(args: argparse.Namespace) -> str:
     """How the ground's texture was rendered, where not by default."""
     notes = ([] if args.ground_texture_scale == 1.0 else [f"{args.ground_texture_scale:g} times finer"]) + \
-        (["finer by 1.65 m over each camera's height"] if args.matched_ground_texture else [])
+        (["finer by KITTI's camera height over each camera's"] if args.matched_ground_texture else [])
     return f", the ground's texture {' and '.join(notes)}" if notes else ""
 
 

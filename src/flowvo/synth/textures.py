@@ -15,8 +15,8 @@ import numpy as np
 from flowvo.synth.sampling import sample_points
 
 TEXTURE_SIZE = 512
-GROUND_TEXTURE_SCALE_RANGE = (0.25, 4.0)  # the ground's texture this much finer than by default: 6 mm to 9 cm
-# the asphalt's finest detail
+GROUND_TEXTURE_SCALE_RANGE = (0.25, 4.0)  # how much finer than by default the ground's texture may be: the asphalt's
+# finest detail from 9 cm down to 6 mm
 
 
 def band_limited_noise(rng: np.random.Generator, size: int, exponent: float, low_cut: float = 2.0) -> np.ndarray:
