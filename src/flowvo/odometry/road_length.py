@@ -40,8 +40,7 @@ class RoadLength:
         self.normal = RoadNormal()
         self.tally = RoadPlaneTally()
         self.profile = RoadProfile()
-        self.near_parallax_px = 0.0  # the last step's near road motion beyond the rotation since the key frame (pixels;
-        # its plane trusted or not; 0: no fit)
+        self.near_parallax_px = 0.0  # the last trusted plane's near road motion beyond the rotation (pixels; 0: none)
 
     def advance(self, R_next_prev: np.ndarray, dt_s: float, step_m: float) -> None:
         """Carry the road's normal over a step of ``dt_s`` seconds and about ``step_m`` metres with rotation
@@ -61,7 +60,7 @@ class RoadLength:
         self.near_parallax_px = 0.0
         if key_fit is None:
             return None, None
-        near_px = self.near_parallax_px = near_road_parallax_px(road[0], road[1], self.K, key_fit.R)
+        near_px = near_road_parallax_px(road[0], road[1], self.K, key_fit.R)
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
         plane = trusted_road_plane(road[0], road[1], self.K, key_fit, levelling=self.levelling, tally=self.tally,
@@ -69,6 +68,7 @@ class RoadLength:
         self._level_by_the_drive()
         if plane is None:
             return None, None
+        self.near_parallax_px = near_px
         plane = self.normal.smoothed(plane, key_fit.R, keep=measured, camera_height_m=self.camera_height_m)
         return plane, self.camera_height_m / plane.distance
 
