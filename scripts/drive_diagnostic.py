@@ -2,11 +2,13 @@
 
 The error split: the KITTI metric (t_err %, r_err deg/m) of the run as it is, of its rotations and directions
 of travel with the true step lengths, of the true rotations and directions with its step lengths, of its step
-lengths all divided by its whole path ratio (its lengths' overall bias removed), and of the run and of its rotations
-and directions with the true lengths once their median direction offset against the truth is turned back, each with
-its path length over the true one; then that offset (azimuth and elevation, degrees). Then, per stretch of
-``--stretch`` frames and per ``--stretch-m`` metres of true path, the estimated path over the true one beside the
-stretch's true length, mean speed (m/s) and heading change (degrees, positive to the right).
+lengths all divided by its whole path ratio (its lengths' overall bias removed), of the run and of its rotations
+and directions with the true lengths once their median direction offset against the truth is turned back, and of
+the run with its mean rotation error per step removed, each with its path length over the true one; then that
+offset (azimuth and elevation, degrees), the mean rotation error per step about the camera's axes (pitch, yaw,
+roll) and the run's yaw over the truth's in turns. Then, per stretch of ``--stretch`` frames and per
+``--stretch-m`` metres of true path, the estimated path over the true one beside the stretch's true length, mean
+speed (m/s) and heading change (degrees, positive to the right).
 The maths: :mod:`flowvo.metrics.error_split`.
 
 Usage: python scripts/drive_diagnostic.py GT.txt PRED.txt [--times times.txt] [--stretch 50] [--stretch-m 100]
@@ -38,12 +40,14 @@ from flowvo.metrics.error_split import (
     stretches,
 )
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
+from flowvo.metrics.rotation_bias import MIN_ROTATION_STEP_M, MIN_TURN_RAD, rotation_bias
 
 SPLIT_ROWS = {"run": "the run", "true_lengths": "its rotations and directions, true step lengths",
               "true_rotations": "true rotations and directions, its step lengths",
               "one_factor": "its step lengths / its path ratio (one factor)",
               "offset_removed": "the run, its direction offset removed",
-              "true_lengths_offset_removed": "its rotations and directions, offset removed, true step lengths"}
+              "true_lengths_offset_removed": "its rotations and directions, offset removed, true step lengths",
+              "rotation_bias_removed": "the run, its mean rotation error per step removed"}
 
 
 def read_times(path: Path, n_frames: int) -> np.ndarray:
@@ -109,6 +113,13 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
               f"{offset.azimuth_deg:+.3f} deg (positive right), elevation {offset.elevation_deg:+.3f} deg (positive "
               "up). A constant offset is also what a truth given in a camera frame turned against the images' own puts "
               "on every step.", ""]
+    bias = rotation_bias(T_gt, T_pred)
+    pitch, yaw, roll = np.degrees(bias.mean_error_rad) * 1000.0
+    lines += [f"**Rotation per step** (the run's step rotations against the truth's, mean error over {bias.steps} "
+              f"steps of {MIN_ROTATION_STEP_M:g} m or more, millidegrees a step): pitch {pitch:+.2f} (positive nose "
+              f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down); in the "
+              f"{bias.turning_steps} steps turning {np.degrees(MIN_TURN_RAD):g} degrees or more, the run's yaw over "
+              f"the truth's {bias.yaw_gain:.4f}.", ""]
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),
                                                                                                stretch_frames),
                                                                      times_s))

@@ -5,7 +5,7 @@ import pytest
 
 from flowvo.cli import build_parser, main
 from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning
-from flowvo.geometry import chain_planar
+from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp
 from flowvo.metrics.error_split import turn_rotation, with_direction_turned
 
 
@@ -55,6 +55,28 @@ def test_eval_reads_a_constant_turn_of_every_step_as_the_direction_offset(tmp_pa
         offset = json.loads((out / "metrics.json").read_text())["direction_offset_deg"]
         assert offset == {"azimuth_right": pytest.approx(0.3, abs=1e-9), "elevation_up": pytest.approx(-0.2, abs=1e-9),
                           "steps": steps, "min_step_m": 0.3}
+
+
+def test_eval_reads_every_step_pitched_up_alike_as_the_rotation_per_step(tmp_path, capsys):
+    """A prediction whose every step pitches 2 millidegrees nose up more than the truth's through gentle bends:
+    eval prints and records that bias (over every second frame, 4 a step) and a yaw gain of 1."""
+    truth = chain_planar(np.c_[np.full(120, 0.8), 0.01 * np.sin(np.arange(120) / 15.0)])
+    steps = relative_motions(truth)
+    steps[:, :3, :3] = steps[:, :3, :3] @ so3_exp([np.radians(0.002), 0.0, 0.0])
+    pitched = chain_se3(steps)
+    np.savetxt(tmp_path / "gt.txt", truth[:, :3].reshape(-1, 12))
+    np.savetxt(tmp_path / "pred.txt", pitched[:, :3].reshape(-1, 12), fmt="%.15e")
+    np.savetxt(tmp_path / "half.txt", np.c_[np.arange(0, 121, 2), pitched[::2, :3].reshape(-1, 12)],
+               fmt=["%d"] + ["%.15e"] * 12)
+    for pred, steps, pitch in (("pred.txt", 120, 2.0), ("half.txt", 60, 4.0)):
+        out = tmp_path / pred.replace(".txt", "_eval")
+        assert main(["eval", "--gt", str(tmp_path / "gt.txt"), "--pred", str(tmp_path / pred), "--lengths", "20",
+                     "--out", str(out)]) == 0
+        assert f"pitch {pitch:+.2f} (up +), yaw +0.00 (right +), roll +0.00 mdeg" in capsys.readouterr().out
+        record = json.loads((out / "metrics.json").read_text())["rotation_per_step_mdeg"]
+        assert record["pitch_up"] == pytest.approx(pitch, rel=1e-4)  # over two steps, turned between them
+        assert (record["yaw_right"], record["roll_right_down"]) == (pytest.approx(0.0, abs=0.01),) * 2
+        assert record["steps"] == steps and record["yaw_gain_in_turns"] == pytest.approx(1.0, abs=1e-6)
 
 
 def test_bad_pose_file_gives_one_line_error_and_exit_2(tmp_path, capsys):

@@ -26,6 +26,7 @@ import numpy as np
 
 from flowvo.geometry import relative_motions, so3_exp, wrap_angle_rad, yaw_rad
 from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M, sequence_segment_errors, summarize
+from flowvo.metrics.rotation_bias import rotation_bias, with_rotation_bias_removed
 from flowvo.trajectory import Trajectory
 
 
@@ -229,14 +230,18 @@ def error_split(T_gt: np.ndarray, T_pred: np.ndarray, lengths_m: tuple[float, ..
     and directions with its step lengths (``true_rotations``), its lengths all divided by its whole path
     ratio (``one_factor``: what is left once the lengths' overall bias is removed), and the run and its
     ``true_lengths`` variant with their :func:`direction_offset` turned back (``offset_removed``,
-    ``true_lengths_offset_removed``: what is left once a constant offset of the directions is removed)."""
+    ``true_lengths_offset_removed``: what is left once a constant offset of the directions is removed), and the run
+    with its mean rotation error per step taken off every step (``rotation_bias_removed``,
+    :mod:`flowvo.metrics.rotation_bias`: what is left once the rotations' bias is removed)."""
     ratio = path_ratio(T_gt, T_pred)
     offset = direction_offset(T_gt, T_pred)
     unturned = T_pred if offset.steps == 0 else with_direction_turned(T_pred, offset.turn().T)
     variants = {"run": T_pred, "true_lengths": with_true_lengths(T_gt, T_pred),
                 "true_rotations": with_true_rotations(T_gt, T_pred),
                 "one_factor": with_lengths_scaled(T_pred, 1.0 / ratio),
-                "offset_removed": unturned, "true_lengths_offset_removed": with_true_lengths(T_gt, unturned)}
+                "offset_removed": unturned, "true_lengths_offset_removed": with_true_lengths(T_gt, unturned),
+                "rotation_bias_removed": with_rotation_bias_removed(
+                    T_gt, T_pred, rotation_bias(T_gt, T_pred).mean_error_rad)}
     split = {}
     for name, poses in variants.items():
         metric = kitti_errors(T_gt, poses, lengths_m)

@@ -12,6 +12,7 @@ from flowvo.io.atomic import atomic_open, write_json_atomic
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics import kitti_odometry as kitti
 from flowvo.metrics.error_split import MIN_DIRECTION_STEP_M, direction_offset
+from flowvo.metrics.rotation_bias import MIN_ROTATION_STEP_M, rotation_bias
 from flowvo.metrics.trajectory_errors import ate_rmse_m, per_frame_errors, rpe
 from flowvo.trajectory import Trajectory
 
@@ -70,6 +71,7 @@ def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none",
     metrics["frames_predicted"] = int(np.isin(pred.frame_ids, gt.frame_ids).sum())
     metrics["path_length_m"] = float(kitti.trajectory_distances(gt.positions)[-1])
     metrics["direction_offset_deg"] = direction_offset_record(gt, pred)
+    metrics["rotation_per_step_mdeg"] = rotation_bias_record(gt, pred)
     return Evaluation(metrics, gt, pred, segments, per_frame_errors(gt, pred))
 
 
@@ -85,6 +87,21 @@ def direction_offset_record(gt: Trajectory, pred: Trajectory) -> dict:
     return {"azimuth_right": offset.azimuth_deg if counted else None,
             "elevation_up": offset.elevation_deg if counted else None, "steps": offset.steps,
             "min_step_m": MIN_DIRECTION_STEP_M}
+
+
+def rotation_bias_record(gt: Trajectory, pred: Trajectory) -> dict:
+    """The prediction's step rotations against the truth's over the frames both hold
+    (:func:`flowvo.metrics.rotation_bias.rotation_bias`, over the steps between consecutive shared frames on which
+    the truth moved :data:`MIN_ROTATION_STEP_M` or more), JSON-ready: the mean error per step about the camera's
+    axes, millidegrees (a bias adds up along a drive), and the prediction's yaw over the truth's in turns (under 1:
+    turns read short, as from a focal length too long; None where no step turned)."""
+    shared = np.intersect1d(gt.frame_ids, pred.frame_ids)
+    bias = rotation_bias(gt.T_world_cam[np.searchsorted(gt.frame_ids, shared)],
+                         pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)])
+    pitch, yaw, roll = (float(value) for value in np.degrees(bias.mean_error_rad) * 1000.0)
+    return {"pitch_up": pitch, "yaw_right": yaw, "roll_right_down": roll, "steps": bias.steps,
+            "yaw_gain_in_turns": None if bias.turning_steps == 0 else bias.yaw_gain,
+            "turning_steps": bias.turning_steps, "min_step_m": MIN_ROTATION_STEP_M}
 
 
 def format_lengths(lengths_m: tuple[float, ...]) -> str:
@@ -140,6 +157,13 @@ def format_table(metrics: dict) -> str:
     if offset and offset["steps"]:
         rows.append(("direction offset", f"azimuth {offset['azimuth_right']:+.3f} deg (right +), elevation "
                                          f"{offset['elevation_up']:+.3f} deg (up +), {offset['steps']} steps"))
+    rotation = metrics.get("rotation_per_step_mdeg")
+    if rotation and rotation["steps"]:
+        gain = "" if rotation["yaw_gain_in_turns"] is None else \
+            f"; yaw in turns {rotation['yaw_gain_in_turns']:.4f} of the truth's"
+        pitch, yaw, roll = (round(rotation[key], 2) + 0.0 for key in ("pitch_up", "yaw_right", "roll_right_down"))
+        rows.append(("rotation per step", f"pitch {pitch:+.2f} (up +), yaw {yaw:+.2f} (right +), roll {roll:+.2f} mdeg "
+                                          f"(right down +), {rotation['steps']} steps{gain}"))  # + 0.0: no -0.00
     if metrics["frames_predicted"] < metrics["frames_gt"]:
         rows.append(("frames", f"{metrics['frames_predicted']} of the ground truth's {metrics['frames_gt']} "
                                "predicted (only those scored)"))

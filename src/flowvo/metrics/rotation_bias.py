@@ -1,0 +1,83 @@
+"""The run's step rotations against the truth's: the mean error each step rotates by about the camera's axes (a
+bias adds up along a drive where noise averages out), the run's yaw against the truth's in turns (a gain under 1:
+turns read short), and the run with that mean error taken off every step, to score what the bias costs.
+
+Poses are ``T_world_cam`` (N, 4, 4), camera-to-world, KITTI's camera frame (x right, y down, z forward), metres;
+the truth and the run hold the same N frames. A step's rotation is that of ``T_prev_cur``
+(:func:`flowvo.geometry.relative_motions`) as an axis-angle vector (radians): about x a pitch (positive: nose up),
+about y a yaw (positive: to the right), about z a roll (positive: right side down). A step's rotation error is the
+axis-angle vector of ``R_true^T R_run``, the run's step rotation after the truth's. Steps on which the truth moved
+less than ``min_step_m`` are left out: a car standing still has no rotation of its own to measure.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from flowvo.geometry import relative_motions, so3_exp, so3_log
+
+MIN_ROTATION_STEP_M = 0.05  # shorter true steps are standstills (the default method holds their rotation)
+MIN_TURN_RAD = np.radians(0.2)  # steps whose true yaw is at least this give the yaw gain
+
+
+@dataclass(frozen=True)
+class RotationBias:
+    """The mean rotation error per step over ``steps`` moving steps, (3,) radians about the camera's x, y, z axes
+    (pitch, yaw, roll), and ``yaw_gain``, the run's yaw over the truth's summed over the ``turning_steps`` steps
+    that turned at least ``MIN_TURN_RAD`` (each step's yaw taken in the sense of the true turn; NaN where none
+    turned)."""
+
+    mean_error_rad: np.ndarray
+    steps: int
+    yaw_gain: float
+    turning_steps: int
+
+
+def moving_steps(T_gt: np.ndarray, min_step_m: float = MIN_ROTATION_STEP_M) -> np.ndarray:
+    """Which steps (N-1,) bool the truth moved at least ``min_step_m`` on."""
+    return np.linalg.norm(np.diff(T_gt[:, :3, 3], axis=0), axis=1) >= min_step_m
+
+
+def step_rotation_errors(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
+    """Each step's rotation error (N-1, 3), radians (module docstring)."""
+    if T_gt.shape != T_pred.shape or T_gt.ndim != 3 or T_gt.shape[1:] != (4, 4) or len(T_gt) < 2:
+        raise ValueError(f"the truth and the run must both be (N, 4, 4) poses of the same N >= 2 frames, got "
+                         f"{T_gt.shape} and {T_pred.shape}")
+    R_true, R_run = relative_motions(T_gt)[:, :3, :3], relative_motions(T_pred)[:, :3, :3]
+    return so3_log(np.swapaxes(R_true, 1, 2) @ R_run)
+
+
+def rotation_bias(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = MIN_ROTATION_STEP_M) -> RotationBias:
+    """The run's :class:`RotationBias` against the truth over the steps the truth moved ``min_step_m`` or more
+    (a zero mean and a NaN gain where it never did)."""
+    errors = step_rotation_errors(T_gt, T_pred)
+    moving = moving_steps(T_gt, min_step_m)
+    true_yaw = so3_log(relative_motions(T_gt)[:, :3, :3])[:, 1]
+    run_yaw = so3_log(relative_motions(T_pred)[:, :3, :3])[:, 1]
+    turning = moving & (np.abs(true_yaw) >= MIN_TURN_RAD)
+    gain = float(np.sum(run_yaw[turning] * np.sign(true_yaw[turning])) / np.sum(np.abs(true_yaw[turning]))) \
+        if turning.any() else float("nan")
+    mean = errors[moving].mean(axis=0) if moving.any() else np.zeros(3)
+    return RotationBias(mean, int(moving.sum()), gain, int(turning.sum()))
+
+
+def with_rotation_bias_removed(T_gt: np.ndarray, T_pred: np.ndarray, mean_error_rad: np.ndarray,
+                               min_step_m: float = MIN_ROTATION_STEP_M) -> np.ndarray:
+    """The run (N, 4, 4) with ``mean_error_rad`` (3,) taken off the rotation of every step the truth moved
+    ``min_step_m`` or more on (each step's rotation ``R_run exp(-mean_error_rad)``), from its first pose, each
+    step's translation in the camera frame of its start its own. Built as the run's orientations turned by a
+    correction chained over the steps, so that with no error to remove the poses stay the run's."""
+    moving = moving_steps(T_gt, min_step_m)
+    R_step = so3_exp(so3_log(relative_motions(T_pred)[:, :3, :3]))  # orthonormal: chained over thousands of steps,
+    # the run's own (orthonormal to about 4e-7 in a KITTI file) would shrink the rotations
+    undo = so3_exp(-np.asarray(mean_error_rad, dtype=float))
+    poses = T_pred.copy()
+    correction = np.eye(3)  # each fixed orientation is the run's times this
+    for k in range(len(R_step)):
+        in_world = poses[k, :3, :3] @ np.linalg.inv(T_pred[k, :3, :3])  # the correction turning the world's steps
+        poses[k + 1, :3, 3] = poses[k, :3, 3] + in_world @ (T_pred[k + 1, :3, 3] - T_pred[k, :3, 3])
+        correction = R_step[k].T @ correction @ R_step[k] @ (undo if moving[k] else np.eye(3))
+        poses[k + 1, :3, :3] = T_pred[k + 1, :3, :3] @ correction
+    return poses

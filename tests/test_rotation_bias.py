@@ -1,0 +1,75 @@
+"""The rotations' bias per step (flowvo.metrics.rotation_bias): the mean step rotation error about the camera's axes,
+the yaw gain in turns, and the run with the bias taken off, on drives with known answers."""
+
+import numpy as np
+import pytest
+
+from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp, so3_log
+from flowvo.metrics.error_split import error_split
+from flowvo.metrics.rotation_bias import rotation_bias, step_rotation_errors, with_rotation_bias_removed
+
+BENDS = chain_planar(np.c_[np.full(200, 0.8), 0.01 * np.sin(np.arange(200) / 15.0)])  # 160 m of gentle bends
+
+
+def with_step_rotations(truth: np.ndarray, rotation_of_step) -> np.ndarray:
+    """The truth's steps, each translation in the camera frame of its start as it is, each rotation replaced by
+    ``rotation_of_step(k, R_true)``, chained from the truth's first pose."""
+    steps = relative_motions(truth)
+    for k, step in enumerate(steps):
+        step[:3, :3] = rotation_of_step(k, step[:3, :3])
+    return chain_se3(steps, truth[0])
+
+
+def test_every_step_pitched_up_alike_reads_as_that_bias_and_is_taken_off_exactly():
+    """Each step pitched 0.002 rad nose up after the truth's (about +x, which turns forward towards -y, up): the bias
+    reads exactly that, the run's path climbs, and with the bias taken off the run is the truth again."""
+    pitch = np.array([0.002, 0.0, 0.0])
+    run = with_step_rotations(BENDS, lambda k, R: R @ so3_exp(pitch))
+    assert run[-1, 1, 3] < -1.0  # y is down: the path climbed
+    bias = rotation_bias(BENDS, run)
+    np.testing.assert_allclose(bias.mean_error_rad, pitch, atol=1e-12)
+    assert bias.steps == 200
+    np.testing.assert_allclose(with_rotation_bias_removed(BENDS, run, bias.mean_error_rad), BENDS, atol=1e-9)
+    split = error_split(BENDS, run, (20.0, 50.0))
+    assert split["run"]["t_err_percent"] > 1.0
+    assert split["rotation_bias_removed"]["t_err_percent"] < 1e-6
+
+
+def test_turns_read_short_give_their_yaw_gain():
+    """Every step's rotation 1 % short of the truth's: the run's yaw over the truth's in turns is 0.99, and the mean
+    error is the mean of the missing hundredths."""
+    run = with_step_rotations(BENDS, lambda k, R: so3_exp(0.99 * so3_log(R)))
+    bias = rotation_bias(BENDS, run)
+    true_yaw = so3_log(relative_motions(BENDS)[:, :3, :3])[:, 1]
+    turning = np.abs(true_yaw) >= np.radians(0.2)
+    assert bias.yaw_gain == pytest.approx(0.99, abs=1e-12)
+    assert bias.turning_steps == int(turning.sum()) > 50
+    np.testing.assert_allclose(bias.mean_error_rad, [0.0, -0.01 * true_yaw.mean(), 0.0], atol=1e-12)
+
+
+def test_steps_the_truth_stood_still_on_are_left_out():
+    """A stop of ten steps whose run turns 0.01 rad each (a held rotation) does not move the bias; the stop's steps
+    keep their rotation when the bias is taken off."""
+    step_m = np.r_[np.full(50, 0.8), np.zeros(10), np.full(50, 0.8)]
+    truth = chain_planar(np.c_[step_m, np.zeros(110)])
+    run = with_step_rotations(truth, lambda k, R: R @ so3_exp([0.0, 0.01 if 50 <= k < 60 else 0.0, 0.0]))
+    bias = rotation_bias(truth, run)
+    assert bias.steps == 100
+    np.testing.assert_allclose(bias.mean_error_rad, 0.0, atol=1e-15)
+    assert np.isnan(bias.yaw_gain) and bias.turning_steps == 0
+    np.testing.assert_allclose(step_rotation_errors(truth, run)[55], [0.0, 0.01, 0.0], atol=1e-15)
+    np.testing.assert_allclose(with_rotation_bias_removed(truth, run, np.array([0.0, 0.003, 0.0]))[51:61, :3, :3],
+                               run[51:61, :3, :3] @ so3_exp([0.0, -0.15, 0.0]), atol=1e-12)
+
+
+def test_no_bias_leaves_a_run_orthonormal_only_to_4e_7_as_it_is():
+    """KITTI's rotations are orthonormal to about 4e-7: with nothing to take off, the run's poses come back as they
+    were (no rotation shrinks over the chained steps)."""
+    run = with_step_rotations(BENDS, lambda k, R: R @ so3_exp([0.001 * np.sin(k), 0.002 * np.cos(k / 3), 0.0]))
+    run[:, :3, :3] *= 1 + 4e-7
+    np.testing.assert_allclose(with_rotation_bias_removed(BENDS, run, np.zeros(3)), run, atol=1e-12)
+
+
+def test_poses_of_other_frames_are_refused():
+    with pytest.raises(ValueError, match="same N"):
+        rotation_bias(BENDS, BENDS[:-1])
