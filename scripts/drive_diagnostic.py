@@ -6,7 +6,7 @@ lengths all divided by its whole path ratio (its lengths' overall bias removed),
 and directions with the true lengths once their median direction offset against the truth is turned back, and of
 the run with its mean rotation error per step removed, each with its path length over the true one; then that
 offset (azimuth and elevation, degrees), the mean rotation error per step about the camera's axes (pitch, yaw,
-roll) and the run's yaw over the truth's in turns. Then, per stretch of ``--stretch`` frames and per
+roll) and the slope of the run's yaw against the truth's. Then, per stretch of ``--stretch`` frames and per
 ``--stretch-m`` metres of true path, the estimated path over the true one beside the stretch's true length, mean
 speed (m/s) and heading change (degrees, positive to the right).
 The maths: :mod:`flowvo.metrics.error_split`.
@@ -117,9 +117,9 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
     pitch, yaw, roll = np.degrees(bias.mean_error_rad) * 1000.0
     lines += [f"**Rotation per step** (the run's step rotations against the truth's, mean error over {bias.steps} "
               f"steps of {MIN_ROTATION_STEP_M:g} m or more, millidegrees a step): pitch {pitch:+.2f} (positive nose "
-              f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down); in the "
-              f"{bias.turning_steps} steps turning {np.degrees(MIN_TURN_RAD):g} degrees or more, the run's yaw over "
-              f"the truth's {bias.yaw_gain:.4f}.", ""]
+              f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down). The slope of the "
+              f"run's yaw per step against the truth's (carried by the {bias.turning_steps} steps turning "
+              f"{np.degrees(MIN_TURN_RAD):g} degrees or more; under 1: turns read short): {bias.yaw_gain:.4f}.", ""]
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),
                                                                                                stretch_frames),
                                                                      times_s))

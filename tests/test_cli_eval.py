@@ -76,7 +76,7 @@ def test_eval_reads_every_step_pitched_up_alike_as_the_rotation_per_step(tmp_pat
         record = json.loads((out / "metrics.json").read_text())["rotation_per_step_mdeg"]
         assert record["pitch_up"] == pytest.approx(pitch, rel=1e-4)  # over two steps, turned between them
         assert (record["yaw_right"], record["roll_right_down"]) == (pytest.approx(0.0, abs=0.01),) * 2
-        assert record["steps"] == steps and record["yaw_gain_in_turns"] == pytest.approx(1.0, abs=1e-6)
+        assert record["steps"] == steps and record["yaw_slope"] == pytest.approx(1.0, abs=1e-6)
 
 
 def test_bad_pose_file_gives_one_line_error_and_exit_2(tmp_path, capsys):

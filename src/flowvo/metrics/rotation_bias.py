@@ -25,9 +25,9 @@ MIN_TURN_RAD = np.radians(0.2)  # steps whose true yaw is at least this give the
 @dataclass(frozen=True)
 class RotationBias:
     """The mean rotation error per step over ``steps`` moving steps, (3,) radians about the camera's x, y, z axes
-    (pitch, yaw, roll), and ``yaw_gain``, the run's yaw over the truth's summed over the ``turning_steps`` steps
-    that turned at least ``MIN_TURN_RAD`` (each step's yaw taken in the sense of the true turn; NaN where none
-    turned)."""
+    (pitch, yaw, roll), and ``yaw_gain``, the slope of the run's yaw per step against the truth's over those steps
+    (a least-squares line, so that a constant error does not move it; the turns carry it), NaN where none of them
+    turned ``MIN_TURN_RAD`` or more (``turning_steps`` did)."""
 
     mean_error_rad: np.ndarray
     steps: int
@@ -57,8 +57,7 @@ def rotation_bias(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = MIN_
     true_yaw = so3_log(relative_motions(T_gt)[:, :3, :3])[:, 1]
     run_yaw = so3_log(relative_motions(T_pred)[:, :3, :3])[:, 1]
     turning = moving & (np.abs(true_yaw) >= MIN_TURN_RAD)
-    gain = float(np.sum(run_yaw[turning] * np.sign(true_yaw[turning])) / np.sum(np.abs(true_yaw[turning]))) \
-        if turning.any() else float("nan")
+    gain = float(np.polyfit(true_yaw[moving], run_yaw[moving], 1)[0]) if turning.any() else float("nan")
     mean = errors[moving].mean(axis=0) if moving.any() else np.zeros(3)
     return RotationBias(mean, int(moving.sum()), gain, int(turning.sum()))
 

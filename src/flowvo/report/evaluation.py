@@ -93,14 +93,14 @@ def rotation_bias_record(gt: Trajectory, pred: Trajectory) -> dict:
     """The prediction's step rotations against the truth's over the frames both hold
     (:func:`flowvo.metrics.rotation_bias.rotation_bias`, over the steps between consecutive shared frames on which
     the truth moved :data:`MIN_ROTATION_STEP_M` or more), JSON-ready: the mean error per step about the camera's
-    axes, millidegrees (a bias adds up along a drive), and the prediction's yaw over the truth's in turns (under 1:
-    turns read short, as from a focal length too long; None where no step turned)."""
+    axes, millidegrees (a bias adds up along a drive), and the slope of the prediction's yaw per step against the
+    truth's (under 1: turns read short, as from a focal length too long; None where no step turned)."""
     shared = np.intersect1d(gt.frame_ids, pred.frame_ids)
     bias = rotation_bias(gt.T_world_cam[np.searchsorted(gt.frame_ids, shared)],
                          pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)])
     pitch, yaw, roll = (float(value) for value in np.degrees(bias.mean_error_rad) * 1000.0)
     return {"pitch_up": pitch, "yaw_right": yaw, "roll_right_down": roll, "steps": bias.steps,
-            "yaw_gain_in_turns": None if bias.turning_steps == 0 else bias.yaw_gain,
+            "yaw_slope": None if bias.turning_steps == 0 else bias.yaw_gain,
             "turning_steps": bias.turning_steps, "min_step_m": MIN_ROTATION_STEP_M}
 
 
@@ -159,8 +159,8 @@ def format_table(metrics: dict) -> str:
                                          f"{offset['elevation_up']:+.3f} deg (up +), {offset['steps']} steps"))
     rotation = metrics.get("rotation_per_step_mdeg")
     if rotation and rotation["steps"]:
-        gain = "" if rotation["yaw_gain_in_turns"] is None else \
-            f"; yaw in turns {rotation['yaw_gain_in_turns']:.4f} of the truth's"
+        gain = "" if rotation["yaw_slope"] is None else \
+            f"; yaw {rotation['yaw_slope']:.4f} of the truth's (slope)"
         pitch, yaw, roll = (round(rotation[key], 2) + 0.0 for key in ("pitch_up", "yaw_right", "roll_right_down"))
         rows.append(("rotation per step", f"pitch {pitch:+.2f} (up +), yaw {yaw:+.2f} (right +), roll {roll:+.2f} mdeg "
                                           f"(right down +), {rotation['steps']} steps{gain}"))  # + 0.0: no -0.00
