@@ -1,11 +1,12 @@
 """Print how a trajectory's rotation drifts against the ground truth, per camera axis: whether r_err is noise
 (errors of either sign that average out) or a drift of the same sign step after step.
 
-Per step, the error rotation ``R_gt^T R_pred`` of the step's motion (camera frame of the step's first frame,
-x right, y down, z forward) as an axis-angle vector; its mean over the steps (the drift a step), its rms,
-and the drift over the path in degrees per 100 m (the steps' errors summed about each axis over the truth's
-path length). Last, the orientation error of the poses themselves (angle of ``R_gt^T R_pred``, world = first
-camera), rms over the frames and at the last one. Degrees throughout.
+Per step, the error rotation ``R_gt^T R_pred`` of the step's motion (camera frame, x right, y down, z forward)
+as an axis-angle vector (:func:`flowvo.metrics.rotation_bias.step_rotation_errors`); its mean over the steps (the
+drift a step), its rms, and the drift over the path in degrees per 100 m (the steps' errors summed about each axis
+over the truth's path length). Last, the orientation error of the poses themselves (angle of ``R_gt^T R_pred``,
+world = first camera), rms over the frames and at the last one. Degrees throughout. ``drive_diagnostic.py`` scores
+what the mean error costs (the run with it removed) and the run's yaw against the truth's.
 
 Usage: python scripts/rotation_drift.py GT_POSES PRED_POSES [PRED_POSES ...]   (KITTI pose files, the same
 frames; e.g. a held-out sequence's truth and ``flowvo run`` outputs of several methods)
@@ -16,16 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo.geometry import relative_motions, so3_log
+from flowvo.geometry import so3_log
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics.kitti_odometry import trajectory_distances
-
-
-def step_rotation_errors_deg(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
-    """Axis-angle vectors (N-1, 3), degrees, of each step's error rotation ``R_gt^T R_pred`` (camera frame of
-    the step's first frame) for poses ``T_world_cam`` (N, 4, 4) of the truth and the prediction."""
-    R_gt, R_pred = relative_motions(T_gt)[:, :3, :3], relative_motions(T_pred)[:, :3, :3]
-    return np.degrees(so3_log(np.swapaxes(R_gt, -1, -2) @ R_pred))
+from flowvo.metrics.rotation_bias import step_rotation_errors
 
 
 def pose_rotation_errors_deg(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
@@ -44,7 +39,7 @@ def main(gt_path: Path, pred_paths: list[Path]) -> None:
         T_pred = read_kitti_poses(pred_path).T_world_cam
         if len(T_pred) != len(T_gt):
             raise SystemExit(f"{pred_path}: {len(T_pred)} poses, the truth has {len(T_gt)}")
-        steps = step_rotation_errors_deg(T_gt, T_pred)
+        steps = np.degrees(step_rotation_errors(T_gt, T_pred))
         poses = pose_rotation_errors_deg(T_gt, T_pred)
         mean, rms, drift = steps.mean(0), np.sqrt((steps ** 2).mean(0)), 100.0 * steps.sum(0) / path_m
         print(f"| {pred_path} | " + " / ".join(f"{v:+.4f}" for v in mean) + " | "
