@@ -35,17 +35,17 @@ def test_every_step_pitched_up_alike_reads_as_that_bias_and_is_taken_off_exactly
     assert split["rotation_bias_removed"]["t_err_percent"] < 1e-6
 
 
-def test_turns_read_short_give_their_yaw_gain_whatever_the_bias():
+def test_turns_read_short_give_their_yaw_slope_whatever_the_bias():
     """Every step's rotation 1 % short of the truth's: the slope of the run's yaw against the truth's is 0.99, and
     the mean error is the mean of the missing hundredths; a yaw error of 3 millidegrees on every step besides leaves
     the gain as it is."""
     run = with_step_rotations(BENDS, lambda k, R: so3_exp(0.99 * so3_log(R)))
     biased = with_step_rotations(BENDS, lambda k, R: so3_exp(0.99 * so3_log(R) + [0.0, np.radians(0.003), 0.0]))
-    assert rotation_bias(BENDS, biased).yaw_gain == pytest.approx(0.99, abs=1e-9)
+    assert rotation_bias(BENDS, biased).yaw_slope == pytest.approx(0.99, abs=1e-9)
     bias = rotation_bias(BENDS, run)
     true_yaw = so3_log(relative_motions(BENDS)[:, :3, :3])[:, 1]
     turning = np.abs(true_yaw) >= np.radians(0.2)
-    assert bias.yaw_gain == pytest.approx(0.99, abs=1e-12)
+    assert bias.yaw_slope == pytest.approx(0.99, abs=1e-12)
     assert bias.turning_steps == int(turning.sum()) > 50
     np.testing.assert_allclose(bias.mean_error_rad, [0.0, -0.01 * true_yaw.mean(), 0.0], atol=1e-12)
 
@@ -59,7 +59,7 @@ def test_steps_the_truth_stood_still_on_are_left_out():
     bias = rotation_bias(truth, run)
     assert bias.steps == 100
     np.testing.assert_allclose(bias.mean_error_rad, 0.0, atol=1e-15)
-    assert np.isnan(bias.yaw_gain) and bias.turning_steps == 0
+    assert np.isnan(bias.yaw_slope) and bias.turning_steps == 0
     np.testing.assert_allclose(step_rotation_errors(truth, run)[55], [0.0, 0.01, 0.0], atol=1e-15)
     np.testing.assert_allclose(with_rotation_bias_removed(truth, run, np.array([0.0, 0.003, 0.0]))[51:61, :3, :3],
                                run[51:61, :3, :3] @ so3_exp([0.0, -0.15, 0.0]), atol=1e-12)
@@ -73,6 +73,8 @@ def test_no_bias_leaves_a_run_orthonormal_only_to_4e_7_as_it_is():
     np.testing.assert_allclose(with_rotation_bias_removed(BENDS, run, np.zeros(3)), run, atol=1e-12)
 
 
-def test_poses_of_other_frames_are_refused():
+def test_poses_of_other_frames_are_refused_and_two_steps_give_no_slope():
     with pytest.raises(ValueError, match="same N"):
         rotation_bias(BENDS, BENDS[:-1])
+    turning = chain_planar(np.array([[1.0, 0.1], [1.0, 0.1]]))
+    assert np.isnan(rotation_bias(turning, turning).yaw_slope)

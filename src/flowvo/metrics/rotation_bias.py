@@ -1,5 +1,5 @@
 """The run's step rotations against the truth's: the mean error each step rotates by about the camera's axes (a
-bias adds up along a drive where noise averages out), the run's yaw against the truth's in turns (a gain under 1:
+bias adds up along a drive where noise averages out), the slope of the run's yaw against the truth's (under 1:
 turns read short), and the run with that mean error taken off every step, to score what the bias costs.
 
 Poses are ``T_world_cam`` (N, 4, 4), camera-to-world, KITTI's camera frame (x right, y down, z forward), metres;
@@ -25,13 +25,13 @@ MIN_TURN_RAD = np.radians(0.2)  # steps whose true yaw is at least this give the
 @dataclass(frozen=True)
 class RotationBias:
     """The mean rotation error per step over ``steps`` moving steps, (3,) radians about the camera's x, y, z axes
-    (pitch, yaw, roll), and ``yaw_gain``, the slope of the run's yaw per step against the truth's over those steps
+    (pitch, yaw, roll), and ``yaw_slope``, the slope of the run's yaw per step against the truth's over those steps
     (a least-squares line, so that a constant error does not move it; the turns carry it), NaN where none of them
-    turned ``MIN_TURN_RAD`` or more (``turning_steps`` did)."""
+    turned ``MIN_TURN_RAD`` or more (``turning_steps`` did) or fewer than three moved."""
 
     mean_error_rad: np.ndarray
     steps: int
-    yaw_gain: float
+    yaw_slope: float
     turning_steps: int
 
 
@@ -57,9 +57,10 @@ def rotation_bias(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = MIN_
     true_yaw = so3_log(relative_motions(T_gt)[:, :3, :3])[:, 1]
     run_yaw = so3_log(relative_motions(T_pred)[:, :3, :3])[:, 1]
     turning = moving & (np.abs(true_yaw) >= MIN_TURN_RAD)
-    gain = float(np.polyfit(true_yaw[moving], run_yaw[moving], 1)[0]) if turning.any() else float("nan")
+    slope = float(np.polyfit(true_yaw[moving], run_yaw[moving], 1)[0]) if turning.any() and moving.sum() > 2 \
+        else float("nan")
     mean = errors[moving].mean(axis=0) if moving.any() else np.zeros(3)
-    return RotationBias(mean, int(moving.sum()), gain, int(turning.sum()))
+    return RotationBias(mean, int(moving.sum()), slope, int(turning.sum()))
 
 
 def with_rotation_bias_removed(T_gt: np.ndarray, T_pred: np.ndarray, mean_error_rad: np.ndarray,

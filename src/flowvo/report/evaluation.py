@@ -100,7 +100,7 @@ def rotation_bias_record(gt: Trajectory, pred: Trajectory) -> dict:
                          pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)])
     pitch, yaw, roll = (float(value) for value in np.degrees(bias.mean_error_rad) * 1000.0)
     return {"pitch_up": pitch, "yaw_right": yaw, "roll_right_down": roll, "steps": bias.steps,
-            "yaw_slope": None if bias.turning_steps == 0 else bias.yaw_gain,
+            "yaw_slope": None if np.isnan(bias.yaw_slope) else bias.yaw_slope,
             "turning_steps": bias.turning_steps, "min_step_m": MIN_ROTATION_STEP_M}
 
 
