@@ -114,12 +114,12 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
               "up). A constant offset is also what a truth given in a camera frame turned against the images' own puts "
               "on every step.", ""]
     bias = rotation_bias(T_gt, T_pred)
-    pitch, yaw, roll = np.degrees(bias.mean_error_rad) * 1000.0
+    pitch, yaw, roll = (round(float(value), 2) + 0.0 for value in np.degrees(bias.mean_error_rad) * 1000.0)  # no -0.00
     lines += [f"**Rotation per step** (the run's step rotations against the truth's, mean error over {bias.steps} "
               f"steps of {MIN_ROTATION_STEP_M:g} m or more, millidegrees a step): pitch {pitch:+.2f} (positive nose "
               f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down). The slope of the "
               f"run's yaw per step against the truth's (carried by the {bias.turning_steps} steps turning "
-              f"{np.degrees(MIN_TURN_RAD):g} degrees or more; under 1: turns read short): {bias.yaw_gain:.4f}.", ""]
+              f"{np.degrees(MIN_TURN_RAD):g} degrees or more; under 1: turns read short): {bias.yaw_slope:.4f}.", ""]
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),
                                                                                                stretch_frames),
                                                                      times_s))
