@@ -19,7 +19,7 @@ import numpy as np
 from flowvo.geometry import relative_motions, so3_exp, so3_log
 
 MIN_ROTATION_STEP_M = 0.05  # shorter true steps are standstills (the default method holds their rotation)
-MIN_TURN_RAD = np.radians(0.2)  # steps whose true yaw is at least this give the yaw gain
+MIN_TURN_RAD = np.radians(0.2)  # without a step turning this much the yaw slope is not read
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ def step_rotation_errors(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
 
 def rotation_bias(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = MIN_ROTATION_STEP_M) -> RotationBias:
     """The run's :class:`RotationBias` against the truth over the steps the truth moved ``min_step_m`` or more
-    (a zero mean and a NaN gain where it never did)."""
+    (a zero mean and a NaN slope where it never did)."""
     errors = step_rotation_errors(T_gt, T_pred)
     moving = moving_steps(T_gt, min_step_m)
     true_yaw = so3_log(relative_motions(T_gt)[:, :3, :3])[:, 1]
