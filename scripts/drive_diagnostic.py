@@ -114,7 +114,7 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
               "up). A constant offset is also what a truth given in a camera frame turned against the images' own puts "
               "on every step.", ""]
     bias = rotation_bias(T_gt, T_pred)
-    pitch, yaw, roll = (round(float(value), 2) + 0.0 for value in np.degrees(bias.mean_error_rad) * 1000.0)  # no -0.00
+    pitch, yaw, roll = (round(float(value), 2) + 0.0 for value in bias.mean_error_mdeg)  # + 0.0: no -0.00
     lines += [f"**Rotation per step** (the run's step rotations against the truth's, mean error over {bias.steps} "
               f"steps of {MIN_ROTATION_STEP_M:g} m or more, millidegrees a step): pitch {pitch:+.2f} (positive nose "
               f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down). The slope of the "

@@ -34,6 +34,11 @@ class RotationBias:
     yaw_slope: float
     turning_steps: int
 
+    @property
+    def mean_error_mdeg(self) -> np.ndarray:
+        """The mean rotation error per step (3,), millidegrees about x, y, z (as reported)."""
+        return np.degrees(self.mean_error_rad) * 1000.0
+
 
 def moving_steps(T_gt: np.ndarray, min_step_m: float = MIN_ROTATION_STEP_M) -> np.ndarray:
     """Which steps (N-1,) bool the truth moved at least ``min_step_m`` on."""

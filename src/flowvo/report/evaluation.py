@@ -98,7 +98,7 @@ def rotation_bias_record(gt: Trajectory, pred: Trajectory) -> dict:
     shared = np.intersect1d(gt.frame_ids, pred.frame_ids)
     bias = rotation_bias(gt.T_world_cam[np.searchsorted(gt.frame_ids, shared)],
                          pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)])
-    pitch, yaw, roll = (float(value) for value in np.degrees(bias.mean_error_rad) * 1000.0)
+    pitch, yaw, roll = (float(value) for value in bias.mean_error_mdeg)
     return {"pitch_up": pitch, "yaw_right": yaw, "roll_right_down": roll, "steps": bias.steps,
             "yaw_slope": None if np.isnan(bias.yaw_slope) else bias.yaw_slope,
             "turning_steps": bias.turning_steps, "min_step_m": MIN_ROTATION_STEP_M}
