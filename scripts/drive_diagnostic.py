@@ -4,11 +4,12 @@ The error split: the KITTI metric (t_err %, r_err deg/m) of the run as it is, of
 of travel with the true step lengths, of the true rotations and directions with its step lengths, of its step
 lengths all divided by its whole path ratio (its lengths' overall bias removed), of the run and of its rotations
 and directions with the true lengths once their median direction offset against the truth is turned back, and of
-the run with its mean rotation error per step removed, each with its path length over the true one; then that
-offset (azimuth and elevation, degrees), the mean rotation error per step about the camera's axes (pitch, yaw,
-roll) and the slope of the run's yaw against the truth's. Then, per stretch of ``--stretch`` frames and per
-``--stretch-m`` metres of true path, the estimated path over the true one beside the stretch's true length, mean
-speed (m/s) and heading change (degrees, positive to the right).
+the run with its mean rotation error per step removed or with its yaw per step divided by the slope below, each with
+its path length over the true one; then that offset (azimuth and elevation, degrees), the mean rotation error per step
+about the camera's axes (pitch, yaw, roll), the slope of the run's yaw against the truth's, and the run's turns over the
+truth's by true speed (:func:`flowvo.metrics.rotation_bias.turn_reading_by_speed`). Then, per stretch of ``--stretch``
+frames and per ``--stretch-m`` metres of true path, the estimated path over the true one beside the stretch's true
+length, mean speed (m/s) and heading change (degrees, positive to the right).
 The maths: :mod:`flowvo.metrics.error_split`.
 
 Usage: python scripts/drive_diagnostic.py GT.txt PRED.txt [--times times.txt] [--stretch 50] [--stretch-m 100]
@@ -39,15 +40,22 @@ from flowvo.metrics.error_split import (
     kitti_errors,
     stretches,
 )
-from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
-from flowvo.metrics.rotation_bias import MIN_ROTATION_STEP_M, MIN_TURN_RAD, rotation_bias
+from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M
+from flowvo.metrics.rotation_bias import (
+    MIN_ROTATION_STEP_M,
+    MIN_TURN_RAD,
+    TurnReading,
+    rotation_bias,
+    turn_reading_by_speed,
+)
 
 SPLIT_ROWS = {"run": "the run", "true_lengths": "its rotations and directions, true step lengths",
               "true_rotations": "true rotations and directions, its step lengths",
               "one_factor": "its step lengths / its path ratio (one factor)",
               "offset_removed": "the run, its direction offset removed",
               "true_lengths_offset_removed": "its rotations and directions, offset removed, true step lengths",
-              "rotation_bias_removed": "the run, its mean rotation error per step removed"}
+              "rotation_bias_removed": "the run, its mean rotation error per step removed",
+              "yaw_slope_removed": "the run, its yaw per step over its yaw slope (turns at their true size)"}
 
 
 def read_times(path: Path, n_frames: int) -> np.ndarray:
@@ -78,6 +86,15 @@ def stretch_table(title: str, rows: list[Stretch]) -> list[str]:
         ratio = "-" if math.isnan(row.path_ratio) else f"{row.path_ratio:.3f}"
         lines.append(f"| {row.first_frame}-{row.last_frame} | {row.true_length_m:.1f} | {row.mean_speed_mps:.1f} "
                      f"| {row.turn_deg:+.1f} | {ratio} |")
+    return [*lines, ""]
+
+
+def turn_table(readings: list[TurnReading]) -> list[str]:
+    lines = [f"**Turns by speed** (the steps turning {np.degrees(MIN_TURN_RAD):g} degrees or more, by their true "
+             "speed: the run's yaw over the truth's, each step signed as the truth turns)", "",
+             "| speed m/s | turning steps | true turn deg | run's turn / truth's |", "| --- | --- | --- | --- |"]
+    lines += [f"| {row.low_mps:g}-{row.high_mps:g} | {row.steps} | {row.true_turn_deg:.1f} | {row.read:.4f} |"
+              for row in readings]
     return [*lines, ""]
 
 
@@ -120,6 +137,8 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
               f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down). The slope of the "
               f"run's yaw per step against the truth's (carried by the {bias.turning_steps} steps turning "
               f"{np.degrees(MIN_TURN_RAD):g} degrees or more; under 1: turns read short): {bias.yaw_slope:.4f}.", ""]
+    lines += turn_table(turn_reading_by_speed(T_gt, T_pred, FRAME_PERIOD_S * np.arange(len(T_gt)) if times_s is None
+                                              else times_s))
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),
                                                                                                stretch_frames),
                                                                      times_s))

@@ -27,6 +27,9 @@ def test_a_run_pitched_up_every_step_reads_its_bias_and_scores_nothing_once_it_i
     assert "| the run, its mean rotation error per step removed | 0.00 | 0.0000 |" in done.stdout
     assert "pitch +3.00 (positive nose up), yaw +0.00 (positive right), roll +0.00" in done.stdout
     assert "turns read short): 1.0000." in done.stdout
+    assert "| the run | 0.11 | 0.0038 |" in done.stdout  # a pitch is no turn gain: rescaling the yaw leaves it
+    assert "| the run, its yaw per step over its yaw slope (turns at their true size) | 0.11 | 0.0038 |" in done.stdout
+    assert "| 6-9 | 112 | 49.0 | 1.0000 |" in done.stdout  # 8 m/s, every turn read at its size
     assert "**Per 50 frames**" in done.stdout and "**Per 100 m**" in done.stdout
 
 

@@ -1,12 +1,19 @@
 """The rotations' bias per step (flowvo.metrics.rotation_bias): the mean step rotation error about the camera's axes,
-the yaw gain in turns, and the run with the bias taken off, on drives with known answers."""
+the yaw gain in turns and how the turns read at each speed, and the run with the bias taken off or its yaw rescaled, on
+drives with known answers."""
 
 import numpy as np
 import pytest
 
 from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp, so3_log
 from flowvo.metrics.error_split import error_split
-from flowvo.metrics.rotation_bias import rotation_bias, step_rotation_errors, with_rotation_bias_removed
+from flowvo.metrics.rotation_bias import (
+    rotation_bias,
+    step_rotation_errors,
+    turn_reading_by_speed,
+    with_rotation_bias_removed,
+    with_yaw_scaled,
+)
 
 BENDS = chain_planar(np.c_[np.full(200, 0.8), 0.01 * np.sin(np.arange(200) / 15.0)])  # 160 m of gentle bends
 
@@ -78,3 +85,33 @@ def test_poses_of_other_frames_are_refused_and_two_steps_give_no_slope():
         rotation_bias(BENDS, BENDS[:-1])
     turning = chain_planar(np.array([[1.0, 0.1], [1.0, 0.1]]))
     assert np.isnan(rotation_bias(turning, turning).yaw_slope)
+
+
+def test_turns_read_short_are_scaled_back_to_the_truth_by_their_slope():
+    """Every step's yaw 1 % short: divided by the slope the run is the truth again and scores nothing, where as it is
+    its heading lags after each bend; a gain of 1 leaves the poses as they were."""
+    run = with_step_rotations(BENDS, lambda k, R: so3_exp(so3_log(R) * [1.0, 0.99, 1.0]))
+    slope = rotation_bias(BENDS, run).yaw_slope
+    assert slope == pytest.approx(0.99, abs=1e-12)
+    np.testing.assert_allclose(with_yaw_scaled(run, 1.0 / slope), BENDS, atol=1e-9)
+    np.testing.assert_allclose(with_yaw_scaled(run, 1.0), run, atol=1e-12)
+    split = error_split(BENDS, run, (20.0, 50.0))
+    assert split["run"]["t_err_percent"] > 0.05
+    assert split["yaw_slope_removed"]["t_err_percent"] < 1e-6
+    assert split["rotation_bias_removed"]["t_err_percent"] > 0.05  # a gain is no bias: its mean error is near zero
+
+
+def test_turns_read_by_speed_band_whichever_way_they_turn():
+    """100 steps at 4 m/s read every turn as it is, then 100 at 10 m/s read every turn 2 % short, left and right
+    alike: the bands say 1 and 0.98; steps turning less than 0.2 degrees and bands without a turn are left out."""
+    step_m = np.r_[np.full(100, 0.4), np.full(100, 1.0)]
+    turn_rad = 0.005 * np.sign(np.sin(np.arange(200) / 7.0 + 0.1))  # 0.29 degrees a step, left and right in turn
+    turn_rad[:10] = 0.001  # 0.06 degrees: not a turn
+    truth = chain_planar(np.c_[step_m, turn_rad])
+    run = with_step_rotations(truth, lambda k, R: so3_exp(so3_log(R) * (0.98 if k >= 100 else 1.0)))
+    readings = turn_reading_by_speed(truth, run, 0.1 * np.arange(201))
+    assert [(row.low_mps, row.high_mps, row.steps) for row in readings] == [(3.0, 6.0, 90), (9.0, 13.0, 100)]
+    assert readings[0].read == pytest.approx(1.0, abs=1e-12) and readings[1].read == pytest.approx(0.98, abs=1e-12)
+    assert readings[1].true_turn_deg == pytest.approx(100 * np.degrees(0.005), rel=1e-9)
+    with pytest.raises(ValueError, match="one increasing time per frame"):
+        turn_reading_by_speed(truth, run, 0.1 * np.arange(200))

@@ -26,7 +26,7 @@ import numpy as np
 
 from flowvo.geometry import relative_motions, so3_exp, wrap_angle_rad, yaw_rad
 from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M, sequence_segment_errors, summarize
-from flowvo.metrics.rotation_bias import rotation_bias, with_rotation_bias_removed
+from flowvo.metrics.rotation_bias import rotation_bias, with_rotation_bias_removed, with_yaw_scaled
 from flowvo.trajectory import Trajectory
 
 
@@ -232,16 +232,19 @@ def error_split(T_gt: np.ndarray, T_pred: np.ndarray, lengths_m: tuple[float, ..
     ``true_lengths`` variant with their :func:`direction_offset` turned back (``offset_removed``,
     ``true_lengths_offset_removed``: what is left once a constant offset of the directions is removed), and the run
     with its mean rotation error per step taken off every step (``rotation_bias_removed``,
-    :mod:`flowvo.metrics.rotation_bias`: what is left once the rotations' bias is removed)."""
+    :mod:`flowvo.metrics.rotation_bias`: what is left once the rotations' bias is removed), and the run with every
+    step's yaw divided by the slope of its yaw against the truth's (``yaw_slope_removed``: what is left once its turns
+    read at their true size; the run as it is where no slope is read)."""
     ratio = path_ratio(T_gt, T_pred)
+    bias = rotation_bias(T_gt, T_pred)
     offset = direction_offset(T_gt, T_pred)
     unturned = T_pred if offset.steps == 0 else with_direction_turned(T_pred, offset.turn().T)
     variants = {"run": T_pred, "true_lengths": with_true_lengths(T_gt, T_pred),
                 "true_rotations": with_true_rotations(T_gt, T_pred),
                 "one_factor": with_lengths_scaled(T_pred, 1.0 / ratio),
                 "offset_removed": unturned, "true_lengths_offset_removed": with_true_lengths(T_gt, unturned),
-                "rotation_bias_removed": with_rotation_bias_removed(
-                    T_gt, T_pred, rotation_bias(T_gt, T_pred).mean_error_rad)}
+                "rotation_bias_removed": with_rotation_bias_removed(T_gt, T_pred, bias.mean_error_rad),
+                "yaw_slope_removed": with_yaw_scaled(T_pred, 1.0 / bias.yaw_slope) if bias.yaw_slope > 0 else T_pred}
     split = {}
     for name, poses in variants.items():
         metric = kitti_errors(T_gt, poses, lengths_m)
