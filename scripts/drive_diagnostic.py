@@ -90,6 +90,7 @@ def stretch_table(title: str, rows: list[Stretch]) -> list[str]:
 
 
 def turn_table(readings: list[TurnReading]) -> list[str]:
+    """The turns by speed (:func:`flowvo.metrics.rotation_bias.turn_reading_by_speed`) as a markdown table."""
     lines = [f"**Turns by speed** (the steps turning {np.degrees(MIN_TURN_RAD):g} degrees or more, by their true "
              "speed: the run's yaw over the truth's, each step signed as the truth turns)", "",
              "| speed m/s | turning steps | true turn deg | run's turn / truth's |", "| --- | --- | --- | --- |"]

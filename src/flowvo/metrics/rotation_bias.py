@@ -89,7 +89,8 @@ def turn_reading_by_speed(T_gt: np.ndarray, T_pred: np.ndarray, times_s: np.ndar
                           edges_mps: tuple[float, ...] = SPEED_BAND_EDGES_MPS) -> list[TurnReading]:
     """The run's turns against the truth's in each band of true speed between consecutive ``edges_mps`` (m/s),
     :class:`TurnReading`; bands without a step turning ``MIN_TURN_RAD`` or more are left out. ``times_s`` (N,): the
-    frames' times, seconds. A yaw gain that depends on the speed is no focal length's."""
+    frames' times, seconds. A focal length off would read every band alike; a reading that changes with the speed
+    comes from elsewhere."""
     step_rotation_errors(T_gt, T_pred)  # the same frames, or ValueError
     times_s = np.asarray(times_s, dtype=float)
     if times_s.shape != (len(T_gt),) or not np.all(np.diff(times_s) > 0):
