@@ -62,11 +62,21 @@ def moving_steps(T_gt: np.ndarray, min_step_m: float = MIN_ROTATION_STEP_M) -> n
     return np.linalg.norm(np.diff(T_gt[:, :3, 3], axis=0), axis=1) >= min_step_m
 
 
-def step_rotation_errors(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
-    """Each step's rotation error (N-1, 3), radians (module docstring)."""
+def _check_same_frames(T_gt: np.ndarray, T_pred: np.ndarray) -> None:
+    """ValueError unless the truth and the run are both (N, 4, 4) poses of the same N >= 2 frames."""
     if T_gt.shape != T_pred.shape or T_gt.ndim != 3 or T_gt.shape[1:] != (4, 4) or len(T_gt) < 2:
         raise ValueError(f"the truth and the run must both be (N, 4, 4) poses of the same N >= 2 frames, got "
                          f"{T_gt.shape} and {T_pred.shape}")
+
+
+def step_rotation_vectors(T_world_cam: np.ndarray) -> np.ndarray:
+    """Each step's rotation as an axis-angle vector (N-1, 3), radians: x pitch, y yaw, z roll (module docstring)."""
+    return so3_log(relative_motions(T_world_cam)[:, :3, :3])
+
+
+def step_rotation_errors(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
+    """Each step's rotation error (N-1, 3), radians (module docstring)."""
+    _check_same_frames(T_gt, T_pred)
     R_true, R_run = relative_motions(T_gt)[:, :3, :3], relative_motions(T_pred)[:, :3, :3]
     return so3_log(np.swapaxes(R_true, 1, 2) @ R_run)
 
@@ -76,8 +86,7 @@ def rotation_bias(T_gt: np.ndarray, T_pred: np.ndarray, min_step_m: float = MIN_
     (a zero mean and a NaN slope where it never did)."""
     errors = step_rotation_errors(T_gt, T_pred)
     moving = moving_steps(T_gt, min_step_m)
-    true_yaw = so3_log(relative_motions(T_gt)[:, :3, :3])[:, 1]
-    run_yaw = so3_log(relative_motions(T_pred)[:, :3, :3])[:, 1]
+    true_yaw, run_yaw = step_rotation_vectors(T_gt)[:, 1], step_rotation_vectors(T_pred)[:, 1]
     turning = moving & (np.abs(true_yaw) >= MIN_TURN_RAD)
     slope = float(np.polyfit(true_yaw[moving], run_yaw[moving], 1)[0]) if turning.any() and moving.sum() > 2 \
         else float("nan")
@@ -91,12 +100,11 @@ def turn_reading_by_speed(T_gt: np.ndarray, T_pred: np.ndarray, times_s: np.ndar
     :class:`TurnReading`; bands without a step turning ``MIN_TURN_RAD`` or more are left out. ``times_s`` (N,): the
     frames' times, seconds. A focal length off would read every band alike; a reading that changes with the speed
     comes from elsewhere."""
-    step_rotation_errors(T_gt, T_pred)  # the same frames, or ValueError
+    _check_same_frames(T_gt, T_pred)
     times_s = np.asarray(times_s, dtype=float)
     if times_s.shape != (len(T_gt),) or not np.all(np.diff(times_s) > 0):
         raise ValueError(f"one increasing time per frame expected: {len(T_gt)} frames, {times_s.shape} times")
-    true_yaw = so3_log(relative_motions(T_gt)[:, :3, :3])[:, 1]
-    run_yaw = so3_log(relative_motions(T_pred)[:, :3, :3])[:, 1]
+    true_yaw, run_yaw = step_rotation_vectors(T_gt)[:, 1], step_rotation_vectors(T_pred)[:, 1]
     speed_mps = np.linalg.norm(np.diff(T_gt[:, :3, 3], axis=0), axis=1) / np.diff(times_s)
     turning = moving_steps(T_gt) & (np.abs(true_yaw) >= MIN_TURN_RAD)
     readings = []
@@ -123,7 +131,7 @@ def with_yaw_scaled(T_pred: np.ndarray, gain: float) -> np.ndarray:
     """The run (N, 4, 4) with every step's yaw, the y component of its rotation's axis-angle vector, times ``gain``
     (:func:`with_step_rotations_changed`): with the inverse of :attr:`RotationBias.yaw_slope`, its turns at the
     truth's size."""
-    rotation_vectors = so3_log(relative_motions(T_pred)[:, :3, :3])
+    rotation_vectors = step_rotation_vectors(T_pred)
     scaled = rotation_vectors * [1.0, gain, 1.0]
     return with_step_rotations_changed(T_pred, np.swapaxes(so3_exp(rotation_vectors), 1, 2) @ so3_exp(scaled))
 
@@ -133,7 +141,7 @@ def with_step_rotations_changed(T_pred: np.ndarray, changes: np.ndarray) -> np.n
     rotations), from its first pose, each step's translation in the camera frame of its start its own. Built as the
     run's orientations turned by a correction chained over the steps, so that where every change is the identity the
     poses stay the run's."""
-    R_step = so3_exp(so3_log(relative_motions(T_pred)[:, :3, :3]))  # orthonormal: chained over thousands of steps,
+    R_step = so3_exp(step_rotation_vectors(T_pred))  # orthonormal: chained over thousands of steps,
     # the run's own (orthonormal to about 4e-7 in a KITTI file) would shrink the rotations
     poses = T_pred.copy()
     correction = np.eye(3)  # each fixed orientation is the run's times this

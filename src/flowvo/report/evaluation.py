@@ -94,7 +94,7 @@ def rotation_bias_record(gt: Trajectory, pred: Trajectory) -> dict:
     (:func:`flowvo.metrics.rotation_bias.rotation_bias`, over the steps between consecutive shared frames on which
     the truth moved :data:`MIN_ROTATION_STEP_M` or more), JSON-ready: the mean error per step about the camera's
     axes, millidegrees (a bias adds up along a drive), and the slope of the prediction's yaw per step against the
-    truth's (under 1: turns read short, as from a focal length too long; None where no step turned)."""
+    truth's (under 1: turns read short; None where no step turned)."""
     shared = np.intersect1d(gt.frame_ids, pred.frame_ids)
     bias = rotation_bias(gt.T_world_cam[np.searchsorted(gt.frame_ids, shared)],
                          pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)])
