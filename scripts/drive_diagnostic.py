@@ -3,13 +3,15 @@
 The error split: the KITTI metric (t_err %, r_err deg/m) of the run as it is, of its rotations and directions
 of travel with the true step lengths, of the true rotations and directions with its step lengths, of its step
 lengths all divided by its whole path ratio (its lengths' overall bias removed), of the run and of its rotations
-and directions with the true lengths once their median direction offset against the truth is turned back, and of
-the run with its mean rotation error per step removed or with its yaw per step divided by the slope below, each with
-its path length over the true one; then that offset (azimuth and elevation, degrees), the mean rotation error per step
-about the camera's axes (pitch, yaw, roll), the slope of the run's yaw against the truth's, and the run's turns over the
-truth's by true speed (:func:`flowvo.metrics.rotation_bias.turn_reading_by_speed`). Then, per stretch of ``--stretch``
-frames and per ``--stretch-m`` metres of true path, the estimated path over the true one beside the stretch's true
-length, mean speed (m/s) and heading change (degrees, positive to the right).
+and directions with the true lengths once their median direction offset against the truth is turned back, of the
+run with its mean rotation error per step removed or with its yaw per step divided by the slope below, and of the run
+read at the truth's times (the clock offset below taken out), each with its path length over the true one; then that
+offset (azimuth and elevation, degrees), the mean rotation error per step about the camera's axes (pitch, yaw, roll),
+the slope of the run's yaw against the truth's, the truth's clock against the images'
+(:mod:`flowvo.metrics.clock_offset`), and the run's turns over the truth's by true speed
+(:func:`flowvo.metrics.rotation_bias.turn_reading_by_speed`). Then, per stretch of ``--stretch`` frames and per
+``--stretch-m`` metres of true path, the estimated path over the true one beside the stretch's true length, mean
+speed (m/s) and heading change (degrees, positive to the right).
 The maths: :mod:`flowvo.metrics.error_split`.
 
 Usage: python scripts/drive_diagnostic.py GT.txt PRED.txt [--times times.txt] [--stretch 50] [--stretch-m 100]
@@ -30,6 +32,7 @@ import numpy as np
 from flowvo.errors import FlowvoError
 from flowvo.io.text_numbers import parse_float
 from flowvo.kitti.poses import read_kitti_poses
+from flowvo.metrics.clock_offset import clock_offset
 from flowvo.metrics.error_split import (
     MIN_DIRECTION_STEP_M,
     Stretch,
@@ -55,7 +58,8 @@ SPLIT_ROWS = {"run": "the run", "true_lengths": "its rotations and directions, t
               "offset_removed": "the run, its direction offset removed",
               "true_lengths_offset_removed": "its rotations and directions, offset removed, true step lengths",
               "rotation_bias_removed": "the run, its mean rotation error per step removed",
-              "yaw_slope_removed": "the run, its yaw per step over its yaw slope (turns at their true size)"}
+              "yaw_slope_removed": "the run, its yaw per step over its yaw slope (turns at their true size)",
+              "clock_offset_removed": "the run read at the truth's times (its clock offset taken out)"}
 
 
 def read_times(path: Path, n_frames: int) -> np.ndarray:
@@ -138,6 +142,13 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
               f"up), yaw {yaw:+.2f} (positive right), roll {roll:+.2f} (positive right side down). The slope of the "
               f"run's yaw per step against the truth's (carried by the {bias.turning_steps} steps turning "
               f"{np.degrees(MIN_TURN_RAD):g} degrees or more; under 1: turns read short): {bias.yaw_slope:.4f}.", ""]
+    clock = clock_offset(T_gt, T_pred)
+    lines += [f"**Clock offset** (how far the run's step rotations lead the truth's, from {clock.steps} steps: the "
+              "truth's clock against the images', not the method's error): "
+              + ("not read (no change of the true rotation between moving steps)." if math.isnan(clock.frames) else
+                 f"{clock.frames:+.3f} +- {clock.standard_error:.3f} frames (positive: each image later than its true "
+                 "pose), "
+                 f"{100 * clock.explained:.0f} % of the step rotation errors' variance."), ""]
     lines += turn_table(turn_reading_by_speed(T_gt, T_pred, FRAME_PERIOD_S * np.arange(len(T_gt)) if times_s is None
                                               else times_s))
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),

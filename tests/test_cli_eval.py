@@ -2,6 +2,7 @@ import json
 
 import numpy as np
 import pytest
+from swaying_drive import swaying_drive
 
 from flowvo.cli import build_parser, main
 from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning
@@ -77,6 +78,27 @@ def test_eval_reads_every_step_pitched_up_alike_as_the_rotation_per_step(tmp_pat
         assert record["pitch_up"] == pytest.approx(pitch, rel=1e-4)  # over two steps, turned between them
         assert (record["yaw_right"], record["roll_right_down"]) == (pytest.approx(0.0, abs=0.01),) * 2
         assert record["steps"] == steps and record["yaw_slope"] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_eval_reads_a_run_on_a_later_clock_as_its_clock_offset_and_scores_it_read_back(tmp_path, capsys):
+    """A prediction that is the truth read 0.2 frames later (swaying through bends): eval prints and records the
+    offset and the metric of the prediction read back at the truth's times (near zero); a prediction of every second
+    frame gets no record (its frames are not one after another)."""
+    truth, later = swaying_drive(np.arange(200.0)), swaying_drive(np.arange(200.0) + 0.2)
+    np.savetxt(tmp_path / "gt.txt", truth[:, :3].reshape(-1, 12), fmt="%.15e")
+    np.savetxt(tmp_path / "pred.txt", later[:, :3].reshape(-1, 12), fmt="%.15e")
+    np.savetxt(tmp_path / "half.txt", np.c_[np.arange(0, 200, 2), later[::2, :3].reshape(-1, 12)],
+               fmt=["%d"] + ["%.15e"] * 12)
+    assert main(["eval", "--gt", str(tmp_path / "gt.txt"), "--pred", str(tmp_path / "pred.txt"), "--lengths", "20",
+                 "--out", str(tmp_path / "e")]) == 0
+    assert "clock offset              +0.20" in capsys.readouterr().out
+    record = json.loads((tmp_path / "e" / "metrics.json").read_text())
+    assert record["clock_offset"]["frames"] == pytest.approx(0.2, abs=0.01)
+    assert record["clock_offset"]["r_err_deg_per_m"] < 0.05 * record["r_err_deg_per_m"]
+    assert main(["eval", "--gt", str(tmp_path / "gt.txt"), "--pred", str(tmp_path / "half.txt"), "--lengths", "20",
+                 "--out", str(tmp_path / "h")]) == 0
+    assert "clock offset" not in capsys.readouterr().out
+    assert json.loads((tmp_path / "h" / "metrics.json").read_text())["clock_offset"] is None
 
 
 def test_bad_pose_file_gives_one_line_error_and_exit_2(tmp_path, capsys):

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from flowvo.geometry import relative_motions, so3_exp, wrap_angle_rad, yaw_rad
+from flowvo.metrics.clock_offset import clock_offset, with_clock_offset_removed
 from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M, sequence_segment_errors, summarize
 from flowvo.metrics.rotation_bias import rotation_bias, with_rotation_bias_removed, with_yaw_scaled
 from flowvo.trajectory import Trajectory
@@ -234,7 +235,9 @@ def error_split(T_gt: np.ndarray, T_pred: np.ndarray, lengths_m: tuple[float, ..
     with its mean rotation error per step taken off every step (``rotation_bias_removed``,
     :mod:`flowvo.metrics.rotation_bias`: what is left once the rotations' bias is removed), and the run with every
     step's yaw divided by the slope of its yaw against the truth's (``yaw_slope_removed``: what is left once its turns
-    read at their true size; the run as it is where no slope is read)."""
+    read at their true size; the run as it is where no slope is read), and the run read at the truth's times
+    (``clock_offset_removed``, :mod:`flowvo.metrics.clock_offset`: what is left once the truth's clock against the
+    images' is taken out; the run as it is where no offset is read)."""
     ratio = path_ratio(T_gt, T_pred)
     bias = rotation_bias(T_gt, T_pred)
     offset = direction_offset(T_gt, T_pred)
@@ -244,7 +247,8 @@ def error_split(T_gt: np.ndarray, T_pred: np.ndarray, lengths_m: tuple[float, ..
                 "one_factor": with_lengths_scaled(T_pred, 1.0 / ratio),
                 "offset_removed": unturned, "true_lengths_offset_removed": with_true_lengths(T_gt, unturned),
                 "rotation_bias_removed": with_rotation_bias_removed(T_gt, T_pred, bias.mean_error_rad),
-                "yaw_slope_removed": with_yaw_scaled(T_pred, 1.0 / bias.yaw_slope) if bias.yaw_slope > 0 else T_pred}
+                "yaw_slope_removed": with_yaw_scaled(T_pred, 1.0 / bias.yaw_slope) if bias.yaw_slope > 0 else T_pred,
+                "clock_offset_removed": with_clock_offset_removed(T_pred, clock_offset(T_gt, T_pred))}
     split = {}
     for name, poses in variants.items():
         metric = kitti_errors(T_gt, poses, lengths_m)

@@ -11,6 +11,7 @@ from flowvo.errors import FlowvoError
 from flowvo.io.atomic import atomic_open, write_json_atomic
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.metrics import kitti_odometry as kitti
+from flowvo.metrics.clock_offset import clock_offset, with_clock_offset_removed
 from flowvo.metrics.error_split import MIN_DIRECTION_STEP_M, direction_offset
 from flowvo.metrics.rotation_bias import MIN_ROTATION_STEP_M, rotation_bias
 from flowvo.metrics.trajectory_errors import ate_rmse_m, per_frame_errors, rpe
@@ -72,6 +73,7 @@ def evaluate(gt: Trajectory, pred: Trajectory, alignment: str = "none",
     metrics["path_length_m"] = float(kitti.trajectory_distances(gt.positions)[-1])
     metrics["direction_offset_deg"] = direction_offset_record(gt, pred)
     metrics["rotation_per_step_mdeg"] = rotation_bias_record(gt, pred)
+    metrics["clock_offset"] = clock_offset_record(gt, pred, lengths_m)
     return Evaluation(metrics, gt, pred, segments, per_frame_errors(gt, pred))
 
 
@@ -102,6 +104,30 @@ def rotation_bias_record(gt: Trajectory, pred: Trajectory) -> dict:
     return {"pitch_up": pitch, "yaw_right": yaw, "roll_right_down": roll, "steps": bias.steps,
             "yaw_slope": None if np.isnan(bias.yaw_slope) else bias.yaw_slope,
             "turning_steps": bias.turning_steps, "min_step_m": MIN_ROTATION_STEP_M}
+
+
+def clock_offset_record(gt: Trajectory, pred: Trajectory, lengths_m: tuple[float, ...]) -> dict | None:
+    """How far the prediction's step rotations lead the truth's (:mod:`flowvo.metrics.clock_offset`), JSON-ready:
+    ``frames`` (positive: each image later than its true pose; None where not read) with its standard error, the
+    share of the step rotation errors' variance it explains, and the KITTI metric of the prediction read at the
+    truth's times (None where undefined). None unless the prediction holds the truth's frames 0..N-1 from the first
+    on, one after another."""
+    shared = np.intersect1d(gt.frame_ids, pred.frame_ids)
+    if len(shared) < 2 or shared[0] != 0 or shared[-1] != len(shared) - 1:
+        return None
+    T_gt, T_pred = gt.T_world_cam[: len(shared)], pred.T_world_cam[np.searchsorted(pred.frame_ids, shared)]
+    offset = clock_offset(T_gt, T_pred)
+    record = {"frames": None if np.isnan(offset.frames) else offset.frames,
+              "standard_error": None if np.isnan(offset.standard_error) else offset.standard_error,
+              "explained": None if np.isnan(offset.explained) else offset.explained, "steps": offset.steps,
+              "t_err_percent": None, "r_err_deg_per_m": None}
+    segments = kitti.sequence_segment_errors(Trajectory.from_poses(T_gt),
+                                             Trajectory.from_poses(with_clock_offset_removed(T_pred, offset)),
+                                             lengths_m)
+    if record["frames"] is not None and len(segments):
+        summary = kitti.summarize(segments, lengths_m)
+        record["t_err_percent"], record["r_err_deg_per_m"] = summary["t_err_percent"], summary["r_err_deg_per_m"]
+    return record
 
 
 def format_lengths(lengths_m: tuple[float, ...]) -> str:
@@ -164,6 +190,13 @@ def format_table(metrics: dict) -> str:
         pitch, yaw, roll = (round(rotation[key], 2) + 0.0 for key in ("pitch_up", "yaw_right", "roll_right_down"))
         rows.append(("rotation per step", f"pitch {pitch:+.2f} (up +), yaw {yaw:+.2f} (right +), roll {roll:+.2f} mdeg "
                                           f"(right down +), {rotation['steps']} steps{gain}"))  # + 0.0: no -0.00
+    clock = metrics.get("clock_offset")
+    if clock and clock["frames"] is not None:
+        rescored = "" if clock["t_err_percent"] is None else \
+            f"; read at the truth's times {clock['t_err_percent']:.4f} % / {clock['r_err_deg_per_m']:.6f} deg/m"
+        rows.append(("clock offset", f"{clock['frames']:+.3f} +- {clock['standard_error']:.3f} frames (images after "
+                                     "their true poses +), "
+                                     f"{100 * clock['explained']:.0f} % of the step rotation errors{rescored}"))
     if metrics["frames_predicted"] < metrics["frames_gt"]:
         rows.append(("frames", f"{metrics['frames_predicted']} of the ground truth's {metrics['frames_gt']} "
                                "predicted (only those scored)"))
