@@ -147,8 +147,7 @@ def report(gt_path: Path, pred_path: Path, times_path: Path | None, stretch_fram
               "truth's clock against the images', not the method's error): "
               + ("not read (no change of the true rotation between moving steps)." if math.isnan(clock.frames) else
                  f"{clock.frames:+.3f} +- {clock.standard_error:.3f} frames (positive: each image later than its true "
-                 "pose), "
-                 f"{100 * clock.explained:.0f} % of the step rotation errors' variance."), ""]
+                 f"pose), {100 * clock.explained:.0f} % of the step rotation errors' variance."), ""]
     lines += turn_table(turn_reading_by_speed(T_gt, T_pred, FRAME_PERIOD_S * np.arange(len(T_gt)) if times_s is None
                                               else times_s))
     lines += stretch_table(f"Per {stretch_frames} frames", stretches(T_gt, T_pred, frame_bounds(len(T_gt),

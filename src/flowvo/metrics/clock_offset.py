@@ -5,8 +5,8 @@ A truth whose pose k belongs to a moment ``d`` frames before image k was taken (
 run's step k the truth's rotation from ``k + d`` to ``k + 1 + d``. To first order its rotation error is then ``d``
 times the change of the truth's step rotation there, ``(r[k+1] - r[k-1]) / 2`` (axis-angle vectors, radians). ``d``
 is the least-squares slope of the errors on those changes, pooled over the camera's three axes, each axis's mean
-error (its bias) taken out first; a car's vibration changes its pitch and roll from step to step, so the offset shows
-on straight roads too. Reading the run at frame ``k - d`` then takes the offset back out of the score.
+error (its bias) taken out first: turns carry it, and so does a car's vibration, which changes its pitch and roll from
+step to step on straight roads too. Reading the run at frame ``k - d`` then takes the offset back out of the score.
 
 Poses are ``T_world_cam`` (N, 4, 4), camera-to-world, metres, of the same N frames; steps and their rotation errors
 as in :mod:`flowvo.metrics.rotation_bias`. Only the truth's clock is in question: the method never sees the truth.

@@ -121,10 +121,12 @@ def clock_offset_record(gt: Trajectory, pred: Trajectory, lengths_m: tuple[float
               "standard_error": None if np.isnan(offset.standard_error) else offset.standard_error,
               "explained": None if np.isnan(offset.explained) else offset.explained, "steps": offset.steps,
               "t_err_percent": None, "r_err_deg_per_m": None}
+    if record["frames"] is None:
+        return record
     segments = kitti.sequence_segment_errors(Trajectory.from_poses(T_gt),
                                              Trajectory.from_poses(with_clock_offset_removed(T_pred, offset)),
                                              lengths_m)
-    if record["frames"] is not None and len(segments):
+    if len(segments):
         summary = kitti.summarize(segments, lengths_m)
         record["t_err_percent"], record["r_err_deg_per_m"] = summary["t_err_percent"], summary["r_err_deg_per_m"]
     return record
