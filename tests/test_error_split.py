@@ -10,6 +10,7 @@ from flowvo.metrics.error_split import (
     distance_bounds,
     error_split,
     frame_bounds,
+    on_true_path,
     path_ratio,
     stretches,
     turn_rotation,
@@ -189,3 +190,17 @@ def test_a_sideways_offset_through_bends_is_read_exactly_and_slow_steps_are_left
     assert offset.elevation_deg == pytest.approx(0.0, abs=1e-9)
     standing = np.tile(np.eye(4), (5, 1, 1))
     assert direction_offset(standing, standing).steps == 0
+
+
+def test_on_the_true_path_a_run_keeps_only_its_rotations():
+    """A run with the true rotations but every length 2 % long lies on the true path as the truth itself; one whose
+    every step also pitches 3 millidegrees more keeps those orientations on the truth's positions."""
+    np.testing.assert_allclose(on_true_path(BENDS, scaled_about_start(BENDS, 1.02)), BENDS, atol=1e-12)
+    steps = relative_motions(BENDS)
+    steps[:, :3, :3] = steps[:, :3, :3] @ so3_exp([np.radians(0.003), 0.0, 0.0])
+    steps[:, :3, 3] *= 1.02
+    pitched = chain_se3(steps)
+    on_path = on_true_path(BENDS, pitched)
+    np.testing.assert_allclose(on_path[:, :3, 3], BENDS[:, :3, 3], atol=1e-12)
+    np.testing.assert_allclose(on_path[:, :3, :3], pitched[:, :3, :3], atol=1e-9)
+    assert not np.allclose(on_path[:, :3, :3], BENDS[:, :3, :3], atol=1e-6)
