@@ -141,18 +141,21 @@ def main(argv: list[str] | None = None) -> int:
                         help="sub-path lengths of the KITTI metric, m (default the devkit's 100..800)")
     parser.add_argument("--width", type=int, default=620, help="frames area-resized to this width, px (default 620)")
     args = parser.parse_args(argv)
+    if args.width < 16 or not all(length > 0 for length in args.lengths):
+        parser.error("--width must be at least 16 px and --lengths positive")
     try:
         sequence = KittiSequence(args.root, args.sequence)
         T_gt = sequence.poses.T_world_cam
         prediction = read_kitti_poses(args.run)
         if len(prediction) != len(T_gt) or not prediction.is_complete:
             raise FlowvoError(f"holds {len(prediction)} poses; the truth has every one of {len(T_gt)} frames", args.run)
+        try:
+            kitti_errors(T_gt, T_gt, tuple(args.lengths))  # before the second opinion's minute of work
+        except ValueError as error:  # the drive is shorter than every sub-path
+            raise FlowvoError(f"{error}; give shorter --lengths", sequence.pose_path) from None
         lines = report(T_gt, prediction.T_world_cam, second_opinion(sequence, args.width), tuple(args.lengths))
     except FlowvoError as error:
         print(f"second_opinion_rotations: {error}", file=sys.stderr)
-        return 2
-    except ValueError as error:
-        print(f"second_opinion_rotations: {error}; give shorter --lengths", file=sys.stderr)
         return 2
     print("\n".join(lines))
     return 0

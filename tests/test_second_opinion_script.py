@@ -1,6 +1,6 @@
 """scripts/second_opinion_rotations.py end to end on real clip 06: the truth given as the run scores nothing against
 the truth and the second opinion's own error against the second opinion, and a run of other frames is refused in one
-line."""
+line, as is a drive shorter than every sub-path."""
 
 import subprocess
 import sys
@@ -35,3 +35,9 @@ def test_a_run_of_other_frames_is_refused_in_one_line(real_clips, tmp_path):
     done = second_opinion(str(real_clips), "06", str(tmp_path / "short.txt"))
     assert done.returncode == 2
     assert done.stderr.count("\n") == 1 and "short.txt" in done.stderr and "50 frames" in done.stderr
+
+
+def test_a_drive_shorter_than_every_sub_path_is_refused_before_the_work(real_clips):
+    done = second_opinion(str(real_clips), "06", str(real_clips / "poses" / "06.txt"))  # 59 m, the devkit's 100..800
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "06.txt" in done.stderr and "give shorter --lengths" in done.stderr
