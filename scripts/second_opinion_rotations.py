@@ -27,12 +27,14 @@ import cv2
 import numpy as np
 from scipy.optimize import least_squares
 
+from flowvo.camera import CameraIntrinsics
 from flowvo.errors import FlowvoError
-from flowvo.geometry import relative_motions, skew, so3_exp, so3_log
+from flowvo.geometry import skew, so3_exp, so3_log
 from flowvo.kitti.poses import read_kitti_poses
 from flowvo.kitti.sequence import KittiSequence
 from flowvo.metrics.error_split import kitti_errors, on_true_path
 from flowvo.metrics.kitti_odometry import SEGMENT_LENGTHS_M
+from flowvo.metrics.rotation_bias import step_rotation_errors
 
 CORNERS, CORNER_QUALITY, CORNER_SPACING_PX = 1500, 0.005, 8
 WINDOW_PX, LEVELS, RETURN_PX = 21, 4, 0.1
@@ -94,12 +96,9 @@ def step_rotation(previous: np.ndarray, current: np.ndarray, K: np.ndarray) -> n
 
 def second_opinion(sequence: KittiSequence, width_px: int) -> np.ndarray:
     """The second opinion's poses (N, 4, 4) of the sequence's frames: its step rotations chained, no translation."""
-    K = sequence.calibration.K0.copy()
     height, width = sequence.image_size_hw
     size = (width_px, int(round(height * width_px / width)))
-    sx, sy = size[0] / width, size[1] / height
-    K[0, 0], K[1, 1] = K[0, 0] * sx, K[1, 1] * sy
-    K[0, 2], K[1, 2] = (K[0, 2] + 0.5) * sx - 0.5, (K[1, 2] + 0.5) * sy - 0.5  # pixel centres
+    K = CameraIntrinsics.from_matrix(sequence.calibration.K0).scaled(size[0] / width, size[1] / height).K
     poses = [np.eye(4)]
     previous = None
     for image in sequence.images():
@@ -121,8 +120,7 @@ def report(T_gt: np.ndarray, T_run: np.ndarray, T_second: np.ndarray, lengths_m:
     for label, reference, poses in rows:
         metric = kitti_errors(reference, poses, lengths_m)
         lines.append(f"| {label} | {metric['r_err_deg_per_m']:.4f} | {metric['t_err_percent']:.2f} |")
-    true_steps = relative_motions(T_gt)[:, :3, :3]
-    errors = [so3_log(np.swapaxes(true_steps, 1, 2) @ relative_motions(T)[:, :3, :3]) for T in (T_run, T_second)]
+    errors = [step_rotation_errors(T_gt, T) for T in (T_run, T_second)]
     correlation = [np.corrcoef(errors[0][:, axis], errors[1][:, axis])[0, 1] for axis in range(3)]
     rms = [np.degrees(np.sqrt((e ** 2).mean(axis=0))) for e in errors]
     lines += ["", "Step rotation errors against the truth (pitch / yaw / roll): rms the run "
