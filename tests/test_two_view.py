@@ -395,17 +395,19 @@ def test_the_pitch_advised_is_a_fixed_point_once_given_and_scattered_planes_advi
 
 def test_after_a_take_planes_through_the_camera_leave_the_mounting_to_the_road_below_it():
     """A wrong take (-8.8 degrees where the camera is pitched up 5) is judged again by the candidates after it: 20 road
-    planes below the camera lean 3.8 degrees back, 20 planes through the camera (one grid row's rays: their centre on
-    the camera's own level) lean -0.5 degrees. Those are counted but leave the pitches alone, so the road's 3.8 degrees
-    are taken; with them in, the two clusters spread over the gate and nothing would be. Before any take, a plane
-    through the camera counts like any other."""
+    planes below the camera lean 3.8 degrees back, 20 planes through the camera (one grid row's rays) lean -0.5
+    degrees. Those are counted but leave the pitches alone, so the road's 3.8 degrees are taken; with them in, the two
+    clusters spread over the gate and nothing would be. Before any take, a plane through the camera counts like any
+    other."""
     from flowvo.odometry.road_plane import RoadPlane, is_below_camera
     from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT, RoadPlaneTally
 
     def leaning(pitch_deg, through_camera=False):
         pitch = np.radians(pitch_deg)
         normal = np.array([0.0, np.cos(pitch), np.sin(pitch)])
-        centre = np.array([0.0, 0.0, 30.0]) if through_camera else np.array([0.0, 1.0, 20.0])
+        if through_camera:  # a hair's breadth below the camera, its centre far ahead, as the engine's were
+            return RoadPlane(1e-15, normal, 0.5, np.array([0.0, 0.0, 30.0]))
+        centre = np.array([0.0, 1.0, 20.0])
         return RoadPlane(float(normal @ centre), normal, 0.5, centre)
 
     assert not is_below_camera(leaning(-0.5, through_camera=True)) and is_below_camera(leaning(3.8))

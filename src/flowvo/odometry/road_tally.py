@@ -93,12 +93,12 @@ class RoadPlaneTally:
         """The pitch and roll to add to the ones given (degrees) when most candidate planes were refused as tilted,
         at least ``MIN_TILTED_FOR_HINT`` of them, or, once a mounting was taken from the drive, after as many
         candidates whatever became of them (as many below the camera: class docstring): each the candidates' median
-        where they lean alike in it
-        (``MAX_ALIKE_SPREAD_DEG``) by ``MIN_HINT_DEG`` or more, else 0; None when neither is (with the mounting taken,
-        the candidates after it centre on the road and nothing more is taken). Planes refused but scattered say the
-        road's flow is poor, not the mounting. A mounting taken is the drive's estimate, not the user's: where a
-        stretch of road rolled against the camera (a rendered world's, synthetic 08: 2.7 degrees) gave it, the
-        road after the stretch leans back by less than the gate, its planes trusted, and takes it back all the same."""
+        where they lean alike in it (``MAX_ALIKE_SPREAD_DEG``) by ``MIN_HINT_DEG`` or more, else 0; None when neither
+        is (with the mounting taken, the candidates after it centre on the road and nothing more is taken). Planes
+        refused but scattered say the road's flow is poor, not the mounting. A mounting taken is the drive's estimate,
+        not the user's: where a stretch of road rolled against the camera (a rendered world's, synthetic 08: 2.7
+        degrees) gave it, the road after the stretch leans back by less than the gate, its planes trusted, and takes it
+        back all the same."""
         trusted, refused = self.trusted - self._since[0], self.refused_as_tilted - self._since[1]
         if self._taken:
             if trusted + refused < MIN_TILTED_FOR_HINT:
