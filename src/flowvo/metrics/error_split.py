@@ -24,10 +24,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from flowvo.geometry import relative_motions, so3_exp, so3_log, wrap_angle_rad, yaw_rad
+from flowvo.geometry import relative_motions, so3_exp, wrap_angle_rad, yaw_rad
 from flowvo.metrics.clock_offset import clock_offset, with_clock_offset_removed
 from flowvo.metrics.kitti_odometry import FRAME_PERIOD_S, SEGMENT_LENGTHS_M, sequence_segment_errors, summarize
-from flowvo.metrics.rotation_bias import rotation_bias, with_rotation_bias_removed, with_yaw_scaled
+from flowvo.metrics.rotation_bias import (
+    rotation_bias,
+    step_rotation_vectors,
+    with_rotation_bias_removed,
+    with_yaw_scaled,
+)
 from flowvo.trajectory import Trajectory
 
 
@@ -174,8 +179,8 @@ def on_true_path(T_gt: np.ndarray, T_pred: np.ndarray) -> np.ndarray:
     """The truth's positions (N, 4, 4) with the run's orientations, chained from the truth's first by the run's step
     rotations: two runs put on it differ in their rotations alone, their lengths and directions of travel set aside."""
     _check_pair(T_gt, T_pred)
-    step_rotations = so3_exp(so3_log(relative_motions(T_pred)[:, :3, :3]))  # orthonormal (see
-    # with_step_rotations_changed: a KITTI file's rotations, chained, would shrink)
+    step_rotations = so3_exp(step_rotation_vectors(T_pred))  # orthonormal (see with_step_rotations_changed: a KITTI
+    # file's rotations, chained, would shrink)
     poses = T_gt.copy()
     orientation = T_gt[0, :3, :3]
     for k, step in enumerate(step_rotations):
