@@ -2,8 +2,8 @@
 camera and by other cameras (each change alone, then all together), t_err and the estimated path length
 against the truth, and the road planes trusted and refused as tilted. Then cameras pitched down or up, told so by
 their calib.txt, and run as if level; a bonnet; a strong barrel lens; and a dash-cam (bonnet, pitched 3 degrees
-down, that lens, 1.3 m high, 25 frames/s), told its pitch, then not told (run as if level); cameras rolled, whose
-roll no calib.txt tells.
+down, that lens, 1.3 m high, 25 frames/s), told its pitch, then not told (run as if level); cameras rolled, not
+told their roll (run as if level), and one told.
 
 Usage: python scripts/synthetic_cameras_table.py OUT_DIR [--frames 300] [--seed 3] [--scale 0.5]
        [--max-speed 12] [--lengths 25 50 75 100] [--rows 0 8 9]
@@ -43,14 +43,16 @@ CAMERAS = {
     "barrel k1 -0.35 k2 0.1 (told)": SynthCamera(distortion=STRONG_BARREL),
     "the dash-cam: bonnet, 3 deg down, k1 -0.35 k2 0.1, 1.3 m, 25 fps (told all)": DASH_CAM,
     NOT_TOLD: DASH_CAM,
-    "rolled 6 deg, right side down (not told: calib.txt has no roll)": SynthCamera(roll_deg=6.0),
+    "rolled 6 deg, right side down, run as if level": SynthCamera(roll_deg=6.0),
     "pitched 5 deg down, rolled 4 deg left side down, run as if level": SynthCamera(pitch_deg=5.0, roll_deg=-4.0),
     "pitched 5 deg up, run as if level": SynthCamera(pitch_deg=-5.0),
+    "rolled 6 deg, right side down (told)": SynthCamera(roll_deg=6.0),
 }
-TOLD_PITCH_DEG = {"pitched 8 deg down, run as if level (--camera-pitch 0)": 0.0, NOT_TOLD: 0.0,
-                  "pitched 5 deg down, rolled 4 deg left side down, run as if level": 0.0,
-                  "pitched 5 deg up, run as if level": 0.0}  # run options that
-# override the camera's calib.txt
+RUN_AS_IF_LEVEL = ("pitched 8 deg down, run as if level (--camera-pitch 0)", NOT_TOLD,
+                   "rolled 6 deg, right side down, run as if level",
+                   "pitched 5 deg down, rolled 4 deg left side down, run as if level",
+                   "pitched 5 deg up, run as if level")  # run with --camera-pitch 0 --camera-roll 0, whatever the
+# camera's calib.txt says
 
 
 def main() -> None:
@@ -87,9 +89,9 @@ def main() -> None:
                        ground_texture_scale=texture_scale)  # the same drive
             rendered[camera] = root
         out = args.out / f"camera_{index}" / "run"
-        pitch_deg = TOLD_PITCH_DEG.get(label)
+        level = 0.0 if label in RUN_AS_IF_LEVEL else None
         summary = run(RunOptions(out=str(out), data=str(root), sequence="00", lengths_m=tuple(args.lengths),
-                                 force=True, camera_pitch_deg=pitch_deg))
+                                 force=True, camera_pitch_deg=level, camera_roll_deg=level))
         reference = reference or summary["metrics"]["t_err_percent"]
         print(_row(label, summary, root, out, reference))
 

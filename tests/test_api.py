@@ -180,11 +180,14 @@ CALIBRATIONS = {
 @pytest.mark.parametrize("name", list(CALIBRATIONS))
 def test_camera_from_every_calibration_format(tmp_path, name):
     (tmp_path / name).write_text(CALIBRATIONS[name])
-    camera = flowvo.Camera.from_file(tmp_path / name, pitch_deg=2.0)
+    camera = flowvo.Camera.from_file(tmp_path / name, pitch_deg=2.0, roll_deg=-3.0)
     assert (camera.fx, camera.fy, camera.cx, camera.cy) == (707.0912, 707.0912, 601.8873, 183.1104)
     assert camera.distortion.model == "plumb_bob" and camera.distortion.coefficients[:2] == (-0.1, 0.01)
-    assert camera.pitch_deg == 2.0 and camera.height_m == (1.7 if name == "ros.yaml" else None)
-    assert camera.run_options()["calib"] == str(tmp_path / name)  # a run reads it as --calib does
+    assert (camera.pitch_deg, camera.roll_deg) == (2.0, -3.0)
+    assert camera.height_m == (1.7 if name == "ros.yaml" else None)
+    options = camera.run_options()  # a run reads it as --calib does, with --camera-pitch and --camera-roll
+    assert (options["calib"], options["camera_pitch_deg"], options["camera_roll_deg"]) == \
+        (str(tmp_path / name), 2.0, -3.0)
 
 
 def test_camera_from_a_kitti_calib_and_from_numbers_run_alike(clip):

@@ -106,10 +106,10 @@ def test_kalibr_camchain_first_camera(tmp_path):
 def test_kitti_calib_with_flowvo_camera_lines(tmp_path):
     path = tmp_path / "calib.txt"
     path.write_text("P0: 500 0 320.5 0 0 502 240.5 0 0 0 1 0\ndistortion: -0.25 0.05 0.001 -0.002\n"
-                    "camera_height_m: 1.2\ncamera_pitch_deg: 7.5\n")
+                    "camera_height_m: 1.2\ncamera_pitch_deg: 7.5\ncamera_roll_deg: -4.25\n")
     camera = read_camera_file(path)
     assert camera.intrinsics == INTRINSICS and camera.distortion == BARREL and camera.height_m == 1.2
-    assert camera.pitch_deg == 7.5
+    assert (camera.pitch_deg, camera.roll_deg) == (7.5, -4.25)
 
 
 def read_calibration_text(tmp_path, text):
@@ -119,14 +119,16 @@ def read_calibration_text(tmp_path, text):
     return read_calibration(tmp_path / "plain.txt")
 
 
-def test_a_pitch_in_calib_txt_survives_writing_and_reading(tmp_path):
+def test_a_pitch_and_roll_in_calib_txt_survive_writing_and_reading(tmp_path):
     from flowvo.kitti.calib import Calibration, format_calibration, read_calibration
 
-    calibration = Calibration({"P0": np.hstack([INTRINSICS.K, np.zeros((3, 1))])}, BARREL, 1.2, -3.25)
+    calibration = Calibration({"P0": np.hstack([INTRINSICS.K, np.zeros((3, 1))])}, BARREL, 1.2, -3.25, 6.5)
     (tmp_path / "calib.txt").write_text(format_calibration(calibration))
     back = read_calibration(tmp_path / "calib.txt")
-    assert (back.distortion, back.camera_height_m, back.camera_pitch_deg) == (BARREL, 1.2, -3.25)
-    assert read_calibration_text(tmp_path, "P0: 500 0 320.5 0 0 502 240.5 0 0 0 1 0\n").camera_pitch_deg is None
+    assert (back.distortion, back.camera_height_m, back.camera_pitch_deg, back.camera_roll_deg) == \
+        (BARREL, 1.2, -3.25, 6.5)
+    plain = read_calibration_text(tmp_path, "P0: 500 0 320.5 0 0 502 240.5 0 0 0 1 0\n")
+    assert plain.camera_pitch_deg is None and plain.camera_roll_deg is None
 
 
 @pytest.mark.parametrize(("line", "message"), [
@@ -134,6 +136,9 @@ def test_a_pitch_in_calib_txt_survives_writing_and_reading(tmp_path):
     ("camera_pitch_deg: nan", "camera pitch must be a finite number"),
     ("camera_pitch_deg: 1 2", "camera_pitch_deg: expected one number \\(degrees\\)"),
     ("camera_pitch_deg: down", "camera_pitch_deg: expected numbers, found text"),
+    ("camera_roll_deg: -16", "camera roll must be a finite number of degrees in \\[-15, 15\\]"),
+    ("camera_roll_deg: inf", "camera roll must be a finite number"),
+    ("camera_roll_deg: 1 2", "camera_roll_deg: expected one number \\(degrees\\)"),
 ])
 def test_a_bad_pitch_line_is_a_one_line_error_naming_the_file_and_line(tmp_path, line, message):
     with pytest.raises(FlowvoError, match=message) as error:
@@ -180,12 +185,28 @@ def test_the_pitch_comes_from_the_flag_else_the_calibration_else_level():
     assert drive.scaled(0.5, 0.5).pitch_deg == 6.0
 
 
+def test_the_roll_comes_from_the_flag_else_the_calibration_else_level_and_turns_the_road_levelling():
+    drive = Camera(INTRINSICS, BARREL, None, "kitti", pitch_deg=6.0, roll_deg=-5.0)
+    kept = drive_camera(given_camera(None, None, None, None, None), drive, (480, 640), "d")
+    assert (kept.pitch_deg, kept.roll_deg, kept.record()["camera_roll_deg"]) == (6.0, -5.0, -5.0)
+    told = drive_camera(given_camera(None, None, None, None, None, camera_roll_deg=0.0), drive, (480, 640), "d")
+    assert (told.pitch_deg, told.roll_deg) == (6.0, 0.0) and not told.is_level
+    level = drive_camera(given_camera(None, None, None, None, None, camera_pitch_deg=0.0, camera_roll_deg=0.0), drive,
+                         (480, 640), "d")
+    assert level.is_level and drive.scaled(0.5, 0.5).roll_deg == -5.0
+    # the road's downward normal, seen by the camera, levelled back to the level camera's down axis
+    road_normal_in_camera = np.array([np.sin(np.radians(-5.0)) * np.cos(np.radians(6.0)),
+                                      np.cos(np.radians(-5.0)) * np.cos(np.radians(6.0)), np.sin(np.radians(6.0))])
+    np.testing.assert_allclose(drive.road_levelling @ road_normal_in_camera, [0.0, 1.0, 0.0], atol=1e-12)
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"fx": 500.0}, "missing --fy --cx --cy"),
     ({"distortion_model": "equidistant"}, "--distortion-model needs --dist"),
     ({"distortion": (0.1, 0.2)}, "takes 4 or 5 coefficients, got 2"),
     ({"camera_height_m": -1.0}, "camera height"),
     ({"camera_pitch_deg": 31.0}, "camera pitch"),
+    ({"camera_roll_deg": -15.5}, "--camera-roll: camera roll must be"),
 ])
 def test_bad_camera_flags(kwargs, message):
     arguments = {"calib": None, "fx": None, "fy": None, "cx": None, "cy": None} | kwargs

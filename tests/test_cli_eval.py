@@ -18,6 +18,18 @@ def test_every_subcommand_has_help(capsys):
         assert sub.format_help().startswith(f"usage: flowvo {name}")
 
 
+def test_the_camera_mounting_flags_reach_the_run_and_a_roll_past_15_degrees_is_refused(capsys):
+    from flowvo.cli.drive_options import run_options
+
+    drive = ["run", "--out", "o", "--video", "v.mp4"]
+    options = run_options(build_parser().parse_args([*drive, "--camera-pitch", "-2.5", "--camera-roll", "4.5"]), "o")
+    assert (options.camera_pitch_deg, options.camera_roll_deg) == (-2.5, 4.5)
+    assert run_options(build_parser().parse_args(drive), "o").camera_roll_deg is None
+    with pytest.raises(SystemExit) as exit_:
+        build_parser().parse_args([*drive, "--camera-roll", "16"])
+    assert exit_.value.code == 2 and "--camera-roll" in capsys.readouterr().err
+
+
 def test_eval_writes_metrics_and_plots(kitti_poses_dir, example_results_dir, tmp_path, capsys):
     code = main(
         [
@@ -122,16 +134,20 @@ def test_a_run_whose_steps_mostly_lack_a_scale_warns_and_names_the_step_records(
     assert _unscaled_warning({"steps": None}, "OUT") is None  # a method without a window
 
 
-def test_the_mounting_note_names_what_was_taken_and_advises_only_the_pitch():
+def test_the_mounting_note_names_what_was_taken_and_advises_what_differs_from_what_was_given():
     def planes(pitches, rolls):
         return {"pitches_taken_deg": pitches, "rolls_taken_deg": rolls, "refused_as_tilted": 21}
 
-    assert _mounting_note(planes([], []), 0.0) is None
-    pitched = _mounting_note(planes([8.3], [0.0]), 0.0)
-    assert "pitched 8.3 deg down" in pitched and "--camera-pitch 8.3" in pitched and "rolled" not in pitched
-    rolled = _mounting_note(planes([3.0], [5.3]), 3.0)  # the pitch was given: only the roll was taken
-    assert "rolled 5.3 deg (right side down)" in rolled and "--camera-pitch" not in rolled and "pitched" not in rolled
-    assert "21 refused as tilted" in rolled
+    assert _mounting_note(planes([], []), 0.0, 0.0) is None
+    pitched = _mounting_note(planes([8.3], [0.0]), 0.0, 0.0)
+    assert "pitched 8.3 deg down" in pitched and "--camera-pitch 8.3 measures" in pitched and "roll" not in pitched
+    rolled = _mounting_note(planes([3.0], [5.3]), 3.0, 0.0)  # the pitch was given: only the roll was taken
+    assert "rolled 5.3 deg (right side down)" in rolled and "--camera-roll 5.3 measures" in rolled
+    assert "--camera-pitch" not in rolled and "pitched" not in rolled and "21 refused as tilted" in rolled
+    both = _mounting_note(planes([8.0, -2.1], [6.0, 4.4]), 0.0, 6.0)  # the last take counts
+    assert "pitched -2.1 deg down, rolled 4.4 deg" in both and "--camera-pitch -2.1 --camera-roll 4.4 measures" in both
+    given_back = _mounting_note(planes([-2.1], [4.4]), -2.1, 4.4)  # taken as given: nothing to advise
+    assert "as given" in given_back and "--camera" not in given_back
 
 
 def test_a_road_that_bends_away_from_its_plane_is_warned_of_and_kitti_s_is_not():

@@ -37,8 +37,8 @@ def seen(road: np.ndarray, length_m: float, yaw_rad: float = 0.01
     return (project(road), project(road @ R.T + t_dir * length_m)), EssentialMotion(R, t_dir, np.ones(1, bool))
 
 
-def road_length(pitch_deg: float = 0.0) -> RoadLength:
-    return RoadLength(K, HEIGHT_M, pitch_deg, MIN_PARALLAX_PX)
+def road_length(pitch_deg: float = 0.0, roll_deg: float = 0.0) -> RoadLength:
+    return RoadLength(K, HEIGHT_M, pitch_deg, roll_deg, MIN_PARALLAX_PX)
 
 
 @pytest.mark.parametrize("length_m", [0.3, 1.2])
@@ -140,6 +140,23 @@ def test_a_rolled_camera_taken_for_level_is_levelled_by_its_drive_once(pitch_deg
         plane, road_m = stage.measure(road, motion, measured=True)
         assert road_m == pytest.approx(0.8, rel=1e-6)
     assert len(stage.pitches_taken_deg) == 1
+    np.testing.assert_allclose(plane.normal, mounting_rotation(pitch_deg, roll_deg).T @ [0.0, 1.0, 0.0], atol=1e-6)
+
+
+@pytest.mark.parametrize("pitch_deg, roll_deg", [(0.0, 7.0), (8.0, -6.0)])
+def test_a_rolled_camera_given_the_mounting_its_drive_takes_measures_from_the_first_plane_and_takes_nothing(
+        pitch_deg, roll_deg):
+    """The mounting a drive takes, given back (``--camera-pitch``, ``--camera-roll``): a fixed point. Every plane is
+    trusted with the exact metres from the first, and nothing is taken."""
+    from flowvo.odometry.road_tally import MIN_TILTED_FOR_HINT
+
+    road_in_camera = on_plane(np.array([0.0, 1.0, 0.0]), HEIGHT_M) @ mounting_rotation(pitch_deg, roll_deg)
+    road, motion = seen(road_in_camera, 0.8, yaw_rad=0.0)
+    stage = road_length(pitch_deg, roll_deg)
+    for _ in range(3 * MIN_TILTED_FOR_HINT):
+        plane, road_m = stage.measure(road, motion, measured=True)
+        assert road_m == pytest.approx(0.8, rel=1e-6)
+    assert (stage.pitches_taken_deg, stage.rolls_taken_deg) == ([], [])
     np.testing.assert_allclose(plane.normal, mounting_rotation(pitch_deg, roll_deg).T @ [0.0, 1.0, 0.0], atol=1e-6)
 
 

@@ -65,7 +65,7 @@ def test_the_road_length_comes_out_exact_once_the_pavement_is_left_out():
         return pixels[:, :2] / pixels[:, 2:]
 
     road = project(GROUND), project(GROUND + t_dir * 0.8)
-    stage = RoadLength(K, HEIGHT_M, 0.0, 1.0)
+    stage = RoadLength(K, HEIGHT_M, 0.0, 0.0, 1.0)
     lengths = [stage.measure(road, EssentialMotion(R, t_dir, np.ones(1, bool)), measured=False)[1]
                for _ in range(MIN_CELL_STEPS + 1)]
     assert abs(lengths[0] - 0.8) > 2e-3

@@ -229,20 +229,29 @@ RIG = [("base_footprint", "base_link", (0.0, 0.0, 0.3), (0.0, 0.0, 0.0, 1.0)),
 
 
 NOSE_DOWN_7 = (0.0, float(np.sin(np.radians(3.5))), 0.0, float(np.cos(np.radians(3.5))))  # about y: x tilts down
+RIGHT_DOWN_5 = (float(np.sin(np.radians(2.5))), 0.0, 0.0, float(np.cos(np.radians(2.5))))  # about x (forward): y (left)
+# tilts up
 
 
 @pytest.mark.parametrize("kind", ["ros2-sqlite3", "mcap"])
-def test_camera_height_and_pitch_come_from_tf_static(tmp_path, kind):
+def test_camera_height_pitch_and_roll_come_from_tf_static(tmp_path, kind):
     bag = write_bag(tmp_path, kind, small_spec(tf_static=RIG))
     level = open_bag_source(bag, TOPIC, INFO_TOPIC)
     assert level.camera_height_m == pytest.approx(1.3) and level.camera_pitch_deg == pytest.approx(0.0, abs=1e-9)
+    assert level.camera_roll_deg == pytest.approx(0.0, abs=1e-9)
     pitched_rig = [RIG[0], RIG[1][:3] + (NOSE_DOWN_7,), RIG[2]]
     pitched = open_bag_source(write_bag(tmp_path / "pitched", kind, small_spec(tf_static=pitched_rig)), TOPIC,
                               INFO_TOPIC)
     assert pitched.camera_pitch_deg == pytest.approx(7.0, abs=1e-6)
+    assert pitched.camera_roll_deg == pytest.approx(0.0, abs=1e-9)
+    rolled_rig = [RIG[0], RIG[1][:3] + (RIGHT_DOWN_5,), RIG[2]]
+    rolled = open_bag_source(write_bag(tmp_path / "rolled", kind, small_spec(tf_static=rolled_rig)), TOPIC,
+                             INFO_TOPIC)
+    assert rolled.camera_pitch_deg == pytest.approx(0.0, abs=1e-9)
+    assert rolled.camera_roll_deg == pytest.approx(5.0, abs=1e-6)
     unconnected = write_bag(tmp_path / "other", kind, small_spec(tf_static=RIG[:1]))
     source = open_bag_source(unconnected, TOPIC, INFO_TOPIC)
-    assert source.camera_height_m is None and source.camera_pitch_deg is None
+    assert source.camera_height_m is None and source.camera_pitch_deg is None and source.camera_roll_deg is None
 
 
 def test_tf_height_follows_the_chain_of_rotations():

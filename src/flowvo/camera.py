@@ -26,6 +26,7 @@ MIN_FOCAL_PX = 1.0  # below a pixel no frame is imaged
 MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000 px frame: no odometry
 MAX_CAMERA_HEIGHT_M = 10.0  # a camera on a truck cab is ~3 m; beyond 10 m no road scale makes sense
 MAX_CAMERA_PITCH_DEG = 30.0  # a camera looking further down sees little but the bonnet and the road at its feet
+MAX_CAMERA_ROLL_DEG = 15.0  # a camera rolled further shows the horizon across a third of a KITTI-shaped frame's height
 LENS_ROUND_TRIP_PX = 0.5  # a frame pixel undistorted and distorted again must land this close to itself
 MAX_LENS_STRETCH = 3.0  # the most a lens model may magnify the image radially, relative to its centre (1)
 
@@ -163,8 +164,10 @@ class Camera:
     ``distortion`` of its lens, its ``height_m`` above the road (metres; None: not known, KITTI's 1.65 m is
     then assumed), where the intrinsics came from (``source``, one of :data:`CAMERA_SOURCES`) and
     ``pitch_deg``, how far its optical axis points below the road's plane (degrees, down positive; 0: mounted
-    level, as KITTI's). ``scaled_from_hw``: (height, width) of the images a calibration file was made at, when
-    the frames are another size of the same aspect ratio and the intrinsics were scaled to them; else None."""
+    level, as KITTI's), and ``roll_deg``, how far it is then rolled about its optical axis (degrees, right side down
+    positive; :func:`mounting_rotation`). ``scaled_from_hw``: (height, width) of the images a calibration file was
+    made at, when the frames are another size of the same aspect ratio and the intrinsics were scaled to them; else
+    None."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion = field(default=NO_DISTORTION)
@@ -172,6 +175,7 @@ class Camera:
     source: str = "flags"
     pitch_deg: float = 0.0
     scaled_from_hw: tuple[int, int] | None = None  # the calibration's image size when the frames' differs
+    roll_deg: float = 0.0
 
     @property
     def K(self) -> np.ndarray:
@@ -183,15 +187,20 @@ class Camera:
         return KITTI_CAMERA_HEIGHT_M if self.height_m is None else self.height_m
 
     @property
+    def is_level(self) -> bool:
+        """Mounted level: neither pitched nor rolled."""
+        return not (self.pitch_deg or self.roll_deg)
+
+    @property
     def road_levelling(self) -> np.ndarray:
         """The rotation (3, 3) from the camera frame to the frame of a level camera at the same place, whose
-        down axis is the road's normal (:func:`pitch_rotation`)."""
-        return pitch_rotation(self.pitch_deg)
+        down axis is the road's normal (:func:`mounting_rotation`)."""
+        return mounting_rotation(self.pitch_deg, self.roll_deg)
 
     def scaled(self, scale_x: float, scale_y: float) -> Camera:
-        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, pitch unchanged)."""
+        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, mounting unchanged)."""
         return Camera(self.intrinsics.scaled(scale_x, scale_y), self.distortion, self.height_m, self.source,
-                      self.pitch_deg, self.scaled_from_hw)
+                      self.pitch_deg, self.scaled_from_hw, self.roll_deg)
 
     def record(self) -> dict:
         """The camera as ``run.json`` records it."""
@@ -199,7 +208,7 @@ class Camera:
         return {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion_model": self.distortion.model,
                 "distortion": list(self.distortion.coefficients), "camera_height_m": self.camera_height_m,
                 "camera_height_given": self.height_m is not None, "camera_pitch_deg": self.pitch_deg,
-                "source": self.source,
+                "camera_roll_deg": self.roll_deg, "source": self.source,
                 **({} if self.scaled_from_hw is None else
                    {"scaled_from_image_size": [self.scaled_from_hw[1], self.scaled_from_hw[0]]})}
 
@@ -247,6 +256,15 @@ def check_camera_pitch(pitch_deg: float, where: str | None = None) -> float:
         raise FlowvoError(f"camera pitch must be a finite number of degrees in [-{MAX_CAMERA_PITCH_DEG:g}, "
                           f"{MAX_CAMERA_PITCH_DEG:g}] (down positive), got {pitch_deg}", where)
     return float(pitch_deg)
+
+
+def check_camera_roll(roll_deg: float, where: str | None = None) -> float:
+    """``roll_deg`` when it is a plausible mounting roll (degrees, right side down positive); a one-line error
+    otherwise."""
+    if not (isinstance(roll_deg, int | float) and math.isfinite(roll_deg) and abs(roll_deg) <= MAX_CAMERA_ROLL_DEG):
+        raise FlowvoError(f"camera roll must be a finite number of degrees in [-{MAX_CAMERA_ROLL_DEG:g}, "
+                          f"{MAX_CAMERA_ROLL_DEG:g}] (right side down positive), got {roll_deg}", where)
+    return float(roll_deg)
 
 
 def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int] | None, where: str | None) -> None:

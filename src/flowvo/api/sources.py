@@ -38,7 +38,8 @@ def run_options(camera: InternalCamera | None, method_name: str = DEFAULT_METHOD
         i = camera.intrinsics
         camera_fields = {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion": distortion,
                          "distortion_model": None if distortion is None else camera.distortion.model,
-                         "camera_height_m": camera.height_m, "camera_pitch_deg": camera.pitch_deg}
+                         "camera_height_m": camera.height_m, "camera_pitch_deg": camera.pitch_deg,
+                         "camera_roll_deg": camera.roll_deg}
     return RunOptions(out="", method=method_name, model=model, flow_method=flow_method, latency_frames=latency_frames,
                       **camera_fields, **fields)
 
@@ -81,6 +82,7 @@ class PushedFrames:
     camera: InternalCamera | None = None
     camera_height_m: float | None = None
     camera_pitch_deg: float | None = None
+    camera_roll_deg: float | None = None
     stamps_ns: np.ndarray | None = None
     is_synthetic = False
 
@@ -129,5 +131,6 @@ def pushed_drive(options: RunOptions, source: PushedFrames) -> Drive:
     from flowvo.camera_options import drive_camera, given_camera
 
     given = given_camera(options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
-                         options.distortion_model, options.camera_height_m, options.camera_pitch_deg)
+                         options.distortion_model, options.camera_height_m, options.camera_pitch_deg,
+                         options.camera_roll_deg)
     return Drive(source, drive_camera(given, None, source.image_size_hw, source.name))

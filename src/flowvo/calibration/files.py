@@ -34,7 +34,7 @@ MAX_IMAGE_SIDE_PX = 100_000  # an image side stated by a calibration file; beyon
 class CameraFile:
     """What a calibration file says: intrinsics (pixels), lens distortion, the camera height above the road
     (metres, when the file has it), the image size (height, width) it was calibrated at (when stated), the
-    kind of file, and the camera's pitch below the road (degrees, when the file has it: KITTI calib.txt)."""
+    kind of file, and the camera's pitch below the road and roll (degrees, when the file has them: KITTI calib.txt)."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion
@@ -42,6 +42,7 @@ class CameraFile:
     image_size_hw: tuple[int, int] | None
     kind: str
     pitch_deg: float | None = None
+    roll_deg: float | None = None
 
 
 def read_camera_file(path: str | Path) -> CameraFile:
@@ -83,7 +84,7 @@ def _kitti(path: Path) -> CameraFile:
     intrinsics = CameraIntrinsics.from_matrix(calibration.K0)
     check_intrinsics(intrinsics, None, str(path))
     return CameraFile(intrinsics, calibration.distortion, calibration.camera_height_m, None, "kitti calib.txt",
-                      calibration.camera_pitch_deg)
+                      calibration.camera_pitch_deg, calibration.camera_roll_deg)
 
 
 def _opencv_storage(text: str, path: Path) -> CameraFile:

@@ -19,7 +19,7 @@ def add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = 
                        one_drive: bool = True) -> None:
     """The drive, camera and method options of ``run``, ``bench`` and ``batch`` (``one_drive`` False: no
     drive options but the bag topics, which apply to every bag of a batch)."""
-    from flowvo.camera import MAX_CAMERA_PITCH_DEG
+    from flowvo.camera import MAX_CAMERA_PITCH_DEG, MAX_CAMERA_ROLL_DEG
 
     drive = p.add_argument_group("drive (one of)" if one_drive else "bags")
     if one_drive:
@@ -44,6 +44,9 @@ def add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = 
     camera.add_argument("--camera-pitch", type=bounded(float, -MAX_CAMERA_PITCH_DEG, MAX_CAMERA_PITCH_DEG),
                         metavar="DEG", help="the camera points DEG degrees below the road's plane (down positive; "
                                             "default: the calibration's, else 0: mounted level)")
+    camera.add_argument("--camera-roll", type=bounded(float, -MAX_CAMERA_ROLL_DEG, MAX_CAMERA_ROLL_DEG),
+                        metavar="DEG", help="the camera is rolled DEG degrees about its optical axis after its pitch "
+                                            "(right side down positive; default: the calibration's, else 0)")
     if methods_default is not None:
         p.add_argument("--method", choices=list(METHODS), default=methods_default, help=methods_help())
     p.add_argument("--model", help="network checkpoint for cnn and flowvo's fallback (default: the packaged model)")
@@ -63,7 +66,8 @@ def run_options(args: argparse.Namespace, out: str) -> RunOptions:
                       camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
                       fy=args.fy, cx=args.cx, cy=args.cy, distortion=tuple(args.dist) if args.dist else None,
                       distortion_model=args.distortion_model, camera_height_m=args.camera_height,
-                      camera_pitch_deg=args.camera_pitch, latency_frames=args.latency,
+                      camera_pitch_deg=args.camera_pitch, camera_roll_deg=args.camera_roll,
+                      latency_frames=args.latency,
                       method=getattr(args, "method", DEFAULT_METHOD), model=args.model, flow_method=args.flow_method,
                       classical_scale=getattr(args, "scale_from", "height"),
                       max_frames=getattr(args, "max_frames", None))

@@ -32,7 +32,7 @@ def command(args: argparse.Namespace) -> int:
         print(_estimate_line(summary["camera"]))
     print(_camera_line(summary))
     planes = summary.get("road_planes", {})
-    if note := _mounting_note(planes, summary["camera"]["camera_pitch_deg"]):
+    if note := _mounting_note(planes, summary["camera"]["camera_pitch_deg"], summary["camera"]["camera_roll_deg"]):
         print(note)
     if warning := _bowl_warning(planes):
         print(warning)
@@ -107,17 +107,19 @@ def _bowl_warning(planes: dict) -> str | None:
             "wrong lens model? docs/dashcam.md)")
 
 
-def _mounting_note(planes: dict, given_pitch_deg: float) -> str | None:
+def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) -> str | None:
     """The note on a mounting taken from the drive (``run.json``'s ``road_planes``), or None when none was: the
-    pitch and roll taken and, where the pitch differs from the one given, the option that gives it from the first
-    frame (no option gives a roll)."""
+    pitch and roll taken and, where they differ from the ones given, the options that give them from the first
+    frame."""
     if not planes.get("pitches_taken_deg"):
         return None
     pitch_deg, roll_deg = planes["pitches_taken_deg"][-1], planes["rolls_taken_deg"][-1]
-    pitch_changed = bool(round(pitch_deg - given_pitch_deg, 1))
+    pitch_changed, roll_changed = bool(round(pitch_deg - given_pitch_deg, 1)), bool(round(roll_deg - given_roll_deg, 1))
     taken = ([f"pitched {pitch_deg:.1f} deg down"] if pitch_changed else []) + \
-        ([f"rolled {roll_deg:.1f} deg (right side down)"] if round(roll_deg, 1) else [])
-    advice = f": --camera-pitch {pitch_deg:.1f} measures with its pitch from the first frame" if pitch_changed else ""
+        ([f"rolled {roll_deg:.1f} deg (right side down)"] if roll_changed else [])
+    options = ([f"--camera-pitch {pitch_deg:.1f}"] if pitch_changed else []) + \
+        ([f"--camera-roll {roll_deg:.1f}"] if roll_changed else [])
+    advice = f": {' '.join(options)} measures with it from the first frame" if options else ""
     return (f"note: the camera's mounting was taken from the drive: {', '.join(taken) or 'as given'} (its road planes "
             f"leaned alike; {planes['refused_as_tilted']} refused as tilted){advice} (docs/camera.md)")
 
@@ -132,6 +134,7 @@ def _camera_line(summary: dict) -> str:
         height += " (KITTI's)" if camera["source"] == "kitti" else \
             " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
     pitch = f", pitched {camera['camera_pitch_deg']:g} deg down" if camera["camera_pitch_deg"] else ""
+    pitch += f", rolled {camera['camera_roll_deg']:g} deg (right side down)" if camera["camera_roll_deg"] else ""
     scaled = "" if "scaled_from_image_size" not in camera else \
         " (scaled to the frames from the calibration's {}x{} images)".format(*camera["scaled_from_image_size"])
     return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "

@@ -23,9 +23,9 @@ def command(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG
+    from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG, MAX_CAMERA_ROLL_DEG
     from flowvo.synth.bonnet import MAX_BONNET_ROWS
-    from flowvo.synth.synth_camera import MAX_ROLL_DEG, PATH_RATE_HZ
+    from flowvo.synth.synth_camera import PATH_RATE_HZ
     from flowvo.synth.textures import GROUND_TEXTURE_SCALE_RANGE
     from flowvo.synth.world import SCENE_TYPES
 
@@ -48,9 +48,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         help="camera height above the road in metres (default 1.65)")
     camera.add_argument("--camera-pitch", type=bounded(float, -MAX_CAMERA_PITCH_DEG, MAX_CAMERA_PITCH_DEG),
                         default=0.0, metavar="DEG", help="camera pitched down by DEG degrees (default 0: level)")
-    camera.add_argument("--camera-roll", type=bounded(float, -MAX_ROLL_DEG, MAX_ROLL_DEG), default=0.0, metavar="DEG",
-                        help="camera rolled by DEG degrees about its optical axis, right side down (default 0; not "
-                             "written to calib.txt: flowvo run takes it from the drive)")
+    camera.add_argument("--camera-roll", type=bounded(float, -MAX_CAMERA_ROLL_DEG, MAX_CAMERA_ROLL_DEG),
+                        default=0.0, metavar="DEG",
+                        help="camera rolled by DEG degrees about its optical axis after its pitch, right side down "
+                             "(default 0)")
     camera.add_argument("--fov", type=bounded(float, 20.0, 150.0), metavar="DEG",
                         help="horizontal field of view in degrees (default KITTI's focal length, ~81.6)")
     camera.add_argument("--distortion", "--dist", nargs="+", type=float, default=[], metavar="K",

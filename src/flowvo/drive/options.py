@@ -46,6 +46,7 @@ class RunOptions:
     distortion_model: str | None = None  # plumb_bob (default for --dist), rational_polynomial, equidistant
     camera_height_m: float | None = None  # above the road; None: the calibration's, else KITTI's 1.65 m
     camera_pitch_deg: float | None = None  # below the road's plane, down +; None: the calibration's, else 0
+    camera_roll_deg: float | None = None  # about the optical axis, right side down +; None: the calibration's, else 0
     latency_frames: int | None = None  # the scale window's latency (frames; None: its default); windowed methods
     method: str = DEFAULT_METHOD
     model: str | None = None
@@ -78,7 +79,8 @@ def open_drive(options: RunOptions) -> Drive:
         raise FlowvoError("give exactly one drive: --data ROOT --sequence NN, --video FILE or --bag PATH --topic T"
                           + (f" (got {' and '.join(drives)})" if drives else ""))
     given = given_camera(options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
-                         options.distortion_model, options.camera_height_m, options.camera_pitch_deg)
+                         options.distortion_model, options.camera_height_m, options.camera_pitch_deg,
+                         options.camera_roll_deg)
     source = _open_source(options, given)
     where = str(options.data or options.video or options.bag)
     estimated = None
@@ -88,7 +90,7 @@ def open_drive(options: RunOptions) -> Drive:
         estimated = estimate_camera(source, where, distortion=given.distortion)  # a given lens (--dist) is used
     own_camera = estimated.camera if estimated else source.camera
     return Drive(source, drive_camera(given, own_camera, source.image_size_hw, where, source.camera_height_m,
-                                      source.camera_pitch_deg),
+                                      source.camera_pitch_deg, source.camera_roll_deg),
                  estimated)
 
 

@@ -1,9 +1,10 @@
 """KITTI ``calib.txt``: projection matrices P0..P3 (3x4, pixels) and the optional velodyne ``Tr``.
 
-flowvo also reads four optional lines that describe the camera beyond KITTI's: ``distortion_model: NAME``
+flowvo also reads five optional lines that describe the camera beyond KITTI's: ``distortion_model: NAME``
 (default plumb_bob, or rational_polynomial for 8 numbers), ``distortion: k1 k2 p1 p2 [k3 ...]``,
-``camera_height_m: H`` (metres above the road) and ``camera_pitch_deg: P`` (degrees below the road's plane,
-down positive), and writes them for cameras that have them.
+``camera_height_m: H`` (metres above the road), ``camera_pitch_deg: P`` (degrees below the road's plane, down
+positive) and ``camera_roll_deg: R`` (degrees about the optical axis after the pitch, right side down positive), and
+writes them for cameras that have them.
 """
 
 from __future__ import annotations
@@ -14,12 +15,12 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height, check_camera_pitch
+from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height, check_camera_pitch, check_camera_roll
 from flowvo.errors import FlowvoError
 from flowvo.io.text_numbers import parse_float
 
 REQUIRED_KEYS = ("P0",)
-CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m", "camera_pitch_deg")
+CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m", "camera_pitch_deg", "camera_roll_deg")
 
 
 @dataclass(frozen=True)
@@ -30,6 +31,7 @@ class Calibration:
     distortion: LensDistortion = NO_DISTORTION
     camera_height_m: float | None = None
     camera_pitch_deg: float | None = None
+    camera_roll_deg: float | None = None
 
     @property
     def K0(self) -> np.ndarray:
@@ -90,10 +92,10 @@ def _check_projection(P: np.ndarray, path: Path, line_number: int) -> None:
 
 
 def _camera_lines(extras: dict[str, tuple[int, str]], path: Path
-                  ) -> tuple[LensDistortion, float | None, float | None]:
-    """The lens distortion, camera height and camera pitch of the optional camera lines."""
+                  ) -> tuple[LensDistortion, float | None, float | None, float | None]:
+    """The lens distortion, camera height, pitch and roll of the optional camera lines."""
     numbers: dict[str, list[float]] = {}
-    for key in ("distortion", "camera_height_m", "camera_pitch_deg"):
+    for key in ("distortion", "camera_height_m", "camera_pitch_deg", "camera_roll_deg"):
         if key in extras:
             line_number, text = extras[key]
             try:
@@ -109,10 +111,11 @@ def _camera_lines(extras: dict[str, tuple[int, str]], path: Path
             distortion = LensDistortion(model or default_model, tuple(coefficients))
         except FlowvoError as error:
             raise FlowvoError(str(error), path, line_number) from None
-    height_m, pitch_deg = (_single_number(numbers, extras, key, unit, check, path) for key, unit, check in
-                           (("camera_height_m", "metres", check_camera_height),
-                            ("camera_pitch_deg", "degrees", check_camera_pitch)))
-    return distortion, height_m, pitch_deg
+    height_m, pitch_deg, roll_deg = (_single_number(numbers, extras, key, unit, check, path) for key, unit, check in
+                                     (("camera_height_m", "metres", check_camera_height),
+                                      ("camera_pitch_deg", "degrees", check_camera_pitch),
+                                      ("camera_roll_deg", "degrees", check_camera_roll)))
+    return distortion, height_m, pitch_deg, roll_deg
 
 
 def _single_number(numbers: dict[str, list[float]], extras: dict[str, tuple[int, str]], key: str, unit: str,
@@ -138,4 +141,6 @@ def format_calibration(calibration: Calibration) -> str:
         lines.append(f"camera_height_m: {calibration.camera_height_m:.6f}")
     if calibration.camera_pitch_deg is not None:
         lines.append(f"camera_pitch_deg: {calibration.camera_pitch_deg:.6f}")
+    if calibration.camera_roll_deg is not None:
+        lines.append(f"camera_roll_deg: {calibration.camera_roll_deg:.6f}")
     return "\n".join(lines) + "\n"

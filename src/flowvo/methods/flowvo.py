@@ -148,7 +148,7 @@ class FlowGeometryStep(WorkingFrames):
         self.robust_scale_px = ROBUST_SCALE_PX * scale
         self.speed = SpeedPrior(max_speed_mps=MAX_SPEED_MPS * KITTI_CAMERA_HEIGHT_M / LOW_CAMERA_HEIGHT_M)  # in the
         # method's units, KITTI camera heights (below)
-        levelling = self.camera.road_levelling if self.camera.pitch_deg else None  # road planes about the road's
+        levelling = None if self.camera.is_level else self.camera.road_levelling  # road planes about the road's
         # normal (a camera mounted level needs no rotation)
         car_axes = np.eye(3) if levelling is None else levelling.T  # columns: the car's right, down and forward
         # axes in the camera frame (a pitched camera's are turned by its pitch)
@@ -157,7 +157,7 @@ class FlowGeometryStep(WorkingFrames):
         # threshold in metres or m/s (the speed prior's limits, the gates by speed, the network's distance) then
         # acts alike at any height, and each length given out is exactly proportional to the height
         self.metres_per_unit = self.camera.camera_height_m / KITTI_CAMERA_HEIGHT_M
-        self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, self.camera.pitch_deg,
+        self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, self.camera.pitch_deg, self.camera.roll_deg,
                                       MIN_ROAD_PARALLAX_PX * scale)
         self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M,
                                                                   BASELINE_PX * scale)

@@ -35,13 +35,14 @@ class RoadFlow:
     resolution), and the dense flow (``flow_method``) that moves the grid from one frame to another; grid points in
     cells that stand still while the road moves (a bonnet) are left out (:mod:`flowvo.odometry.still_regions`:
     judged in the grid's near half, where the road moves more than its median; ``scale``: working width over the
-    reference width). The crop and grid start below the horizon of a camera pitched up (:meth:`place`)."""
+    reference width). The crop and grid start below the horizon of a camera pitched up or rolled
+    (:meth:`place`)."""
 
     def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0) -> None:
         self.camera, self.K, self.working_hw, self.scale = camera, camera.intrinsics.K, working_hw, scale
         self.estimator = create_estimator(flow_method)
         self.horizon_below_px: float | None = None  # how far below the principal point the crop and grid start
-        self.place(camera.pitch_deg)
+        self.place(camera.pitch_deg, camera.roll_deg)
 
     def place(self, pitch_deg: float, roll_deg: float = 0.0, min_side_px: int = 0) -> bool:
         """Place the crop and grid for a camera pitched ``pitch_deg`` down and rolled ``roll_deg`` (degrees; its

@@ -21,8 +21,9 @@ from flowvo.odometry.two_view import EssentialMotion
 
 class RoadLength:
     """The road scale of a camera with intrinsics ``K`` (working pixels), ``camera_height_m`` above the road,
-    pitched ``pitch_deg`` down (degrees; its road planes are judged in the road-levelled frame);
-    ``min_parallax_px``: the road motion beyond the rotation that nine road points in ten must show.
+    pitched ``pitch_deg`` down and then rolled ``roll_deg`` (degrees, :func:`flowvo.camera.mounting_rotation`; its
+    road planes are judged in the road-levelled frame); ``min_parallax_px``: the road motion beyond the rotation that
+    nine road points in ten must show.
 
     Where the drive's candidate planes say the camera is pitched or rolled otherwise (most refused as tilted, leaning
     alike by a degree or more: :meth:`RoadPlaneTally.mounting_hint_deg`), their median pitch and roll are taken from
@@ -31,9 +32,10 @@ class RoadLength:
     the road; a pitch taken from a long tilt ahead is taken back by the level road after it). ``pitches_taken_deg``,
     ``rolls_taken_deg``: the mountings so taken (degrees, :func:`flowvo.camera.mounting_rotation`)."""
 
-    def __init__(self, K: np.ndarray, camera_height_m: float, pitch_deg: float, min_parallax_px: float) -> None:
-        self.K, self.camera_height_m, self.pitch_deg, self.roll_deg = K, camera_height_m, pitch_deg, 0.0
-        self.levelling = mounting_rotation(pitch_deg, 0.0) if pitch_deg else None
+    def __init__(self, K: np.ndarray, camera_height_m: float, pitch_deg: float, roll_deg: float,
+                 min_parallax_px: float) -> None:
+        self.K, self.camera_height_m, self.pitch_deg, self.roll_deg = K, camera_height_m, pitch_deg, roll_deg
+        self.levelling = mounting_rotation(pitch_deg, roll_deg) if pitch_deg or roll_deg else None
         self.pitches_taken_deg: list[float] = []
         self.rolls_taken_deg: list[float] = []
         self.min_parallax_px = min_parallax_px

@@ -1,10 +1,11 @@
-"""The camera's height above the ground and its pitch from a bag's static transforms (``/tf_static``,
-tf2_msgs/TFMessage).
+"""The camera's height above the ground and its mounting (pitch, roll) from a bag's static transforms
+(``/tf_static``, tf2_msgs/TFMessage).
 
 ROS names the ground under a robot or car ``base_footprint`` (REP 105: the base's projection on the ground,
 z up); the image messages name their optical frame in ``header.frame_id``. The height is the z of the
 camera frame's origin in the ground frame, through the chain of static transforms between them; the pitch
-is how far the optical axis (the optical frame's z) points below the ground's plane.
+is how far the optical axis (the optical frame's z) points below the ground's plane, and the roll how far the
+camera is then turned about it (right side down positive, :func:`flowvo.camera.mounting_rotation`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+from flowvo.camera import mounting_of_road_normal
 
 GROUND_FRAME = "base_footprint"
 
@@ -62,9 +65,10 @@ def camera_height_m(transforms: list[StaticTransform], camera_frame: str, ground
     return float(pose[2, 3])
 
 
-def camera_pitch_deg(transforms: list[StaticTransform], camera_frame: str, ground_frame: str = GROUND_FRAME
-                     ) -> float | None:
-    """How far the optical axis (z) of ``camera_frame`` points below ``ground_frame``'s plane (degrees, down
-    positive), or None when the static transforms do not connect them."""
+def camera_mounting_deg(transforms: list[StaticTransform], camera_frame: str, ground_frame: str = GROUND_FRAME
+                        ) -> tuple[float, float] | None:
+    """The pitch of ``camera_frame``'s optical axis (z) below ``ground_frame``'s plane and its roll about it after
+    the pitch (degrees, down and right side down positive), or None when the static transforms do not connect
+    them."""
     pose = frame_in(transforms, camera_frame, ground_frame)
-    return None if pose is None else float(np.degrees(np.arcsin(np.clip(-pose[2, 2], -1.0, 1.0))))
+    return None if pose is None else mounting_of_road_normal(-pose[2, :3])  # the ground's down axis, camera frame

@@ -24,6 +24,7 @@ class FrameSource(Protocol):
     the frames as ``frames()`` yields them; None when it says nothing (a video).
     ``camera_height_m``: the camera's height above the road when the drive says it (a bag's /tf_static, a
     KITTI calib.txt line), else None; ``camera_pitch_deg`` likewise its pitch below the road (degrees, down
+    positive), ``camera_roll_deg`` its roll about the optical axis after the pitch (degrees, right side down
     positive).
     ``image_size_hw``: (height, width) of every frame.
     ``frame_count``: number of frames when known in advance (None for streams of unknown length).
@@ -42,6 +43,7 @@ class FrameSource(Protocol):
     camera: Camera | None
     camera_height_m: float | None
     camera_pitch_deg: float | None
+    camera_roll_deg: float | None
     stamps_ns: np.ndarray | None
     image_size_hw: tuple[int, int]
     frame_count: int | None

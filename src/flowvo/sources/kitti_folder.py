@@ -32,7 +32,8 @@ class KittiFolderSource:
         """From the sequence's calib.txt."""
         calibration = self.sequence.calibration
         return Camera(CameraIntrinsics.from_matrix(calibration.K0), calibration.distortion,
-                      calibration.camera_height_m, "kitti", calibration.camera_pitch_deg or 0.0)
+                      calibration.camera_height_m, "kitti", calibration.camera_pitch_deg or 0.0,
+                      roll_deg=calibration.camera_roll_deg or 0.0)
 
     @property
     def camera_height_m(self) -> float | None:
@@ -43,6 +44,11 @@ class KittiFolderSource:
     def camera_pitch_deg(self) -> float | None:
         """From the sequence's calib.txt, when it has the line."""
         return self.sequence.calibration.camera_pitch_deg
+
+    @property
+    def camera_roll_deg(self) -> float | None:
+        """From the sequence's calib.txt, when it has the line."""
+        return self.sequence.calibration.camera_roll_deg
 
     @cached_property
     def ground_truth(self) -> Trajectory | None:

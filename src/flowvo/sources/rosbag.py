@@ -34,7 +34,7 @@ from flowvo.ros.images import (
     image_message_to_grey,
     raw_image_size_hw,
 )
-from flowvo.ros.tf_static import StaticTransform, camera_height_m, camera_pitch_deg
+from flowvo.ros.tf_static import StaticTransform, camera_height_m, camera_mounting_deg
 from flowvo.sources.base import safe_source_name
 from flowvo.trajectory import MIN_FRAME_INTERVAL_S, Trajectory
 
@@ -58,10 +58,11 @@ class BagSource:
 
     def __init__(self, path: Path, topic: str, message_type: str, name: str, camera: Camera | None,
                  image_size_hw: tuple[int, int], stamps_ns: np.ndarray, camera_height_m: float | None = None,
-                 camera_pitch_deg: float | None = None) -> None:
+                 camera_pitch_deg: float | None = None, camera_roll_deg: float | None = None) -> None:
         self.path = path
         self.camera_height_m = camera_height_m  # from /tf_static, when the bag has it
         self.camera_pitch_deg = camera_pitch_deg  # likewise
+        self.camera_roll_deg = camera_roll_deg  # likewise
         self.topic = topic
         self.message_type = message_type
         self.name = name
@@ -108,15 +109,15 @@ def open_bag_source(path: str | Path, topic: str, camera_info_topic: str | None 
                               f"{_list_topics(reader, (CAMERA_INFO_TYPE,))}), --calib or --fx/--fy/--cx/--cy", bag)
         else:
             camera = None  # the given intrinsics describe it
-        height_m, pitch_deg = _tf_static_mounting(reader, bag, topic)
+        height_m, mounting_deg = _tf_static_mounting(reader, bag, topic)
     name = safe_source_name(bag.name if bag.is_dir() else bag.stem, "bag")  # a ROS 2 bag is a folder
     return BagSource(bag, topic, message_type, name, camera, image_size_hw,
-                     np.asarray(stamps_ns, dtype=np.int64), height_m, pitch_deg)
+                     np.asarray(stamps_ns, dtype=np.int64), height_m, *(mounting_deg or (None, None)))
 
 
-def _tf_static_mounting(reader: Any, bag: Path, topic: str) -> tuple[float | None, float | None]:
-    """The image frame's height above ``base_footprint`` and its pitch below it (degrees) from ``/tf_static``
-    (None each when the bag has no such transforms or they do not connect the two frames)."""
+def _tf_static_mounting(reader: Any, bag: Path, topic: str) -> tuple[float | None, tuple[float, float] | None]:
+    """The image frame's height above ``base_footprint`` and its pitch below it and roll (degrees) from
+    ``/tf_static`` (None each when the bag has no such transforms or they do not connect the two frames)."""
     info = reader.topics.get(TF_STATIC_TOPIC)
     if info is None or info.msgtype != TF_MESSAGE_TYPE:
         return None, None
@@ -127,7 +128,7 @@ def _tf_static_mounting(reader: Any, bag: Path, topic: str) -> tuple[float | Non
                                   (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
                                    t.transform.rotation.w))
                   for _, msg in _topic_messages(reader, bag, TF_STATIC_TOPIC) for t in msg.transforms]
-    return camera_height_m(transforms, camera_frame), camera_pitch_deg(transforms, camera_frame)
+    return camera_height_m(transforms, camera_frame), camera_mounting_deg(transforms, camera_frame)
 
 
 def _check_bag_path(path: Path) -> Path:

@@ -56,6 +56,7 @@ class VideoSource:
     camera: Camera | None = None  # a video carries no camera description
     camera_height_m: float | None = None
     camera_pitch_deg: float | None = None
+    camera_roll_deg: float | None = None
     stamps_ns: np.ndarray | None = None
 
     def __init__(self, path: Path, name: str, image_size_hw: tuple[int, int], frame_count: int | None,

@@ -97,14 +97,14 @@ def intrinsics(scale: float, camera: SynthCamera | None = None) -> tuple[np.ndar
 
 def kitti_calibration(K: np.ndarray, camera: SynthCamera | None = None) -> Calibration:
     """P0..P3 as in KITTI: P1 (right grey) at the 0.54 m baseline; colour cameras share the grey ones.
-    A camera other than KITTI's adds its lens distortion and its height above the road."""
+    A camera other than KITTI's adds its lens distortion, its height above the road and its mounting (pitch, roll)."""
     P0 = np.hstack([K, np.zeros((3, 1))])
     P1 = P0.copy()
     P1[0, 3] = -K[0, 0] * STEREO_BASELINE_M
     matrices = {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
     if camera is None or camera.is_kitti:
         return Calibration(matrices)
-    return Calibration(matrices, camera.distortion, camera.height_m, camera.pitch_deg or None)
+    return Calibration(matrices, camera.distortion, camera.height_m, camera.pitch_deg or None, camera.roll_deg or None)
 
 
 _worker_state: dict = {}

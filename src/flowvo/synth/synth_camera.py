@@ -18,6 +18,7 @@ from flowvo.camera import (
     LensDistortion,
     check_camera_height,
     check_camera_pitch,
+    check_camera_roll,
     distort_points,
     mounting_rotation,
     undistort_points,
@@ -29,7 +30,6 @@ from flowvo.synth.camera_path import FRAME_PERIOD_S
 PATH_RATE_HZ = 1.0 / FRAME_PERIOD_S  # generated and replayed (KITTI) paths are sampled at 10 Hz
 FOV_RANGE_DEG = (20.0, 150.0)  # a pinhole image beyond ~150 deg is mostly stretched periphery
 FPS_RANGE_HZ = (1.0, 120.0)  # slower than 1 Hz the road leaves the view between frames; 120 Hz is a fast camera
-MAX_ROLL_DEG = 15.0  # a camera rolled further shows the horizon across a third of a KITTI-shaped frame's height
 LENS_ROUND_TRIP_PX = 0.05  # undistort-then-distort error (px) above which the lens model is not invertible there
 LENS_CHECK_SAMPLES = 200  # points per centre-to-corner line of the one-to-one check
 
@@ -54,9 +54,7 @@ class SynthCamera:
     def __post_init__(self) -> None:
         check_camera_height(self.height_m, "--camera-height")
         check_camera_pitch(self.pitch_deg, "--camera-pitch")
-        if not (math.isfinite(self.roll_deg) and abs(self.roll_deg) <= MAX_ROLL_DEG):
-            raise FlowvoError(f"--camera-roll {self.roll_deg:g}: use a roll in [-{MAX_ROLL_DEG:g}, {MAX_ROLL_DEG:g}] "
-                              "degrees")
+        check_camera_roll(self.roll_deg, "--camera-roll")
         if self.fov_deg is not None and not FOV_RANGE_DEG[0] <= self.fov_deg <= FOV_RANGE_DEG[1]:
             raise FlowvoError(f"--fov {self.fov_deg:g}: use a horizontal field of view in "
                               f"[{FOV_RANGE_DEG[0]:g}, {FOV_RANGE_DEG[1]:g}] degrees")
