@@ -146,3 +146,24 @@ def test_a_road_crop_placed_too_small_for_the_flow_is_not_placed():
     assert not road.place(-25.0, min_side_px=32)
     np.testing.assert_array_equal(road.grid_px, grid)
     assert road.crop == crop and road.horizon_below_px == 0.0
+
+
+def test_a_view_that_ends_above_a_bonnet_keeps_its_paint_out_of_the_road_flow():
+    """The frames' view ends at row 170 (a bonnet found below it): the road crop and grid stop there as at the frame's
+    bottom edge, so the same step with a bonnet painted from that row down is measured exactly as without it, and
+    every road point given back lies ``GRID_MARGIN_PX`` above the view's end in both frames. Over the whole frame the
+    grid reaches into the paint."""
+    bottom = 170
+    H = road_moved_by(1.5)
+    previous, current = frames(H, LensDistortion())
+    paint = np.random.default_rng(7).uniform(150, 250, (HW[0] - bottom, HW[1])).astype(np.uint8)
+    painted = [np.vstack([image[:bottom], paint]) for image in (previous, current)]
+    camera = Camera(INTRINSICS, height_m=HEIGHT_M)
+    before, after = RoadFlow(camera, HW, "dis-road").measure(*painted, H, bottom_px=bottom)
+    clean_before, clean_after = RoadFlow(camera, HW, "dis-road").measure(previous, current, H, bottom_px=bottom)
+    np.testing.assert_array_equal(before, clean_before)
+    np.testing.assert_array_equal(after, clean_after)
+    assert len(before) and (before[:, 1] < bottom - GRID_MARGIN_PX).all()
+    assert (after[:, 1] < bottom - GRID_MARGIN_PX).all()
+    whole_before, whole_after = RoadFlow(camera, HW, "dis-road").measure(*painted, H)
+    assert len(whole_before) > len(before)

@@ -73,3 +73,21 @@ def test_widen_takes_the_four_neighbours_of_each_still_cell():
         expected[r, c] = True
     np.testing.assert_array_equal(regions.still.reshape(regions.shape), expected)
     np.testing.assert_array_equal(regions.kept_out, regions.still)
+
+
+def test_a_bonnet_band_tells_where_it_begins_and_a_watermark_or_still_cells_alone_do_not():
+    """The tracks' band (``band``): the first pixel row of the rows kept out across the whole width that reach the
+    frame's bottom, the bonnet's top cell row (160 = 10 cells of 16 px); a watermark keeps out only its column, and
+    without ``band`` the bonnet's still cells (a third of its width) are no band."""
+    seen = BONNET & (GRID[:, 0] < 192)
+    watermark = (GRID[:, 1] >= 128) & (GRID[:, 1] < 144) & (GRID[:, 0] >= 304) & (GRID[:, 0] < 320)
+    band, plain, marked = (StillRegions(HW, first_row=120, band=True), StillRegions(HW, first_row=120),
+                           StillRegions(HW, first_row=120, band=True))
+    assert band.band_top_px() is None  # nothing judged yet
+    for _ in range(MIN_STEPS):
+        band.observe(GRID, np.where(seen | watermark, 0.05, 3.0))
+        plain.observe(GRID, np.where(seen, 0.05, 3.0))
+        marked.observe(GRID, np.where(watermark, 0.05, 3.0))
+    assert band.band_top_px() == 160
+    assert plain.band_top_px() is None and plain.still_cells > 0
+    assert marked.band_top_px() is None and marked.still_cells == 1

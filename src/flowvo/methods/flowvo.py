@@ -57,6 +57,7 @@ from flowvo.odometry.two_view import (
     textured_points,
     track_points,
 )
+from flowvo.odometry.view_bottom import ViewBottom
 from flowvo.odometry.window_stage import WindowStage, motion_in_metres
 
 DEFAULT_ROAD_FLOW_METHOD = "dis-road"  # DIS down to the working resolution (the presets' road flow, one pyramid
@@ -135,9 +136,11 @@ class FlowGeometryStep(WorkingFrames):
         no_room = road_room(image_size_hw, camera.intrinsics.K)
         if no_room:
             raise FlowvoError(f"{no_room} (check the intrinsics; --method classical needs no road)")
-        self.road = RoadFlow(self.camera, self.working_hw, flow_method, scale)
+        self.road = RoadFlow(self.camera, self.working_hw, flow_method, scale, MIN_FLOW_SIDE_PX)
         self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
                                          STILL_SHARE / 2, band=True)
+        self.view_bottom = ViewBottom(self.working_hw, self.still_tracks.first_row, self.still_tracks.cell_px)
+        self.frame_rows = image_size_hw[0]  # the frames' own height, for run.json's rows
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
                               f"method: its road crop is {self.road.crop_hw[1]}x{self.road.crop_hw[0]} px, the flow "
@@ -178,11 +181,12 @@ class FlowGeometryStep(WorkingFrames):
     def prepare(self, image: np.ndarray) -> GeometryFrame:
         """The working frame, its textured points and the tracks from the previous frame (tracking here balances the
         reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07); their essential fit is left
-        to :meth:`complete`."""
+        to :meth:`complete`. Once the still tracks find a bonnet, the frames' view ends above its edge
+        (:mod:`flowvo.odometry.view_bottom`): points and tracks stay above it, and so does the road."""
         working = super().prepare(image)
         previous = self._previous
-        textured = textured_points(working)
         if previous is None:
+            textured = textured_points(working)
             self._previous = GeometryFrame(working, textured, *(np.zeros((0, 2), np.float32),) * 4, None,
                                            landmarks=self._landmarks(working, textured))
             return self._previous
@@ -190,16 +194,21 @@ class FlowGeometryStep(WorkingFrames):
             np.zeros(0, np.int64)
         count = len(previous.textured_px)
         start = np.concatenate([previous.textured_px, previous.tracked_next[continued_rows]])
-        moved, found = lucas_kanade(previous.image, working, start, TRACK_WINDOW_PX)  # one call: each point is
-        # tracked alone
+        bottom = previous.bottom_px  # the frames end above a bonnet found by then: tracks that go under it are lost,
+        # as at the frame's edge
+        moved, found = lucas_kanade(previous.image[:bottom], working[:bottom], start, TRACK_WINDOW_PX)  # one call:
+        # each point is tracked alone
         tracked_prev, tracked_next = start[:count][found[:count]], moved[:count][found[:count]]
         self.still_tracks.observe(tracked_prev, row_norms(tracked_next - tracked_prev))
+        self.view_bottom.observe(working)
+        bottom = self.view_bottom.settle(self.still_tracks.band_top_px())
+        textured = textured_points(working[:bottom])
         if self.still_tracks.still_cells:  # no new tracks from a bonnet, a dashboard, a watermark
             textured = textured[self.still_tracks.keep(textured)]
         pair = self.road.undistort(tracked_prev), self.road.undistort(tracked_next)
         self._previous = GeometryFrame(working, textured, tracked_prev, tracked_next, *pair, None,
                                        continued_rows[found[count:]], moved[count:][found[count:]],
-                                       self._landmarks(working, textured), fit_pending=True)
+                                       self._landmarks(working, textured), fit_pending=True, bottom_px=bottom)
         return self._previous
 
     def complete(self, prepared: GeometryFrame) -> GeometryFrame:
@@ -222,33 +231,37 @@ class FlowGeometryStep(WorkingFrames):
         current = self.complete(current)  # done already where a stream or flowvo.Odometry called it
         motion = current.pair_prev, current.pair_next, current.pair_fit
         key = previous if self.road_key.frame is None else self.road_key.frame
+        bottom = min(key.bottom_px, current.bottom_px)  # where the two frames' view ends (a bonnet found)
         unpredicted = None
         if key is previous and self.road_key.prediction is None and self.speed.last_speed_mps is None and \
                 current.pair_fit is not None:
-            unpredicted = self.road.unpredicted(previous.image, current.image)
-            if not road_flow_within_reach(row_norms(unpredicted - self.road.grid_undistorted_px),
-                                          self.dis_reach_px, predicted=False):
-                self.road_key.prediction, unpredicted = self._swept_prediction(previous, current), None
-        road = self.road.measure(key.image, current.image, self.road_key.prediction, unpredicted)
+            unpredicted = self.road.unpredicted(previous.image, current.image, bottom)
+            grid_px = self.road.grid_undistorted_px[self.road.view(bottom).grid]
+            if not road_flow_within_reach(row_norms(unpredicted - grid_px), self.dis_reach_px, predicted=False):
+                self.road_key.prediction, unpredicted = self._swept_prediction(previous, current, bottom), None
+        road = self.road.measure(key.image, current.image, self.road_key.prediction, unpredicted, bottom)
         key_tracks = (None, None) if key is previous else self._tracks_from(key, current)
         rotation_key = self.checks.rotation_key.frame
         rotation_tracks = (None, None) if rotation_key is None else \
             key_tracks if rotation_key is key else self._tracks_from(rotation_key, current)
         return GeometryFlow(*motion, *road, current, *key_tracks, *rotation_tracks)
 
-    def _swept_prediction(self, previous: GeometryFrame, current: GeometryFrame) -> np.ndarray:
+    def _swept_prediction(self, previous: GeometryFrame, current: GeometryFrame, bottom_px: int) -> np.ndarray:
         """The road homography of the pair's motion at the one of ``ACQUISITION_STEPS`` whose warp matches the road
         best (:meth:`RoadFlow.best_prediction`; the road level under the camera's mounting, a camera height below
-        it): a drive's first road prediction, while its speed is not known and its road moved beyond DIS's reach."""
+        it; the frames' view ending at ``bottom_px``): a drive's first road prediction, while its speed is not known
+        and its road moved beyond DIS's reach."""
         normal = in_camera_frame(RoadPlane.level(KITTI_CAMERA_HEIGHT_M), self.road_length.levelling).normal
         fit = current.pair_fit
         return self.road.best_prediction(previous.image, current.image, [
             metric_road_homography(self.K, se3_next_prev(fit.R, fit.t_dir * length), normal, KITTI_CAMERA_HEIGHT_M)
-            for length in ACQUISITION_STEPS])
+            for length in ACQUISITION_STEPS], bottom_px)
 
     def _tracks_from(self, key: GeometryFrame, current: GeometryFrame) -> tuple[np.ndarray, np.ndarray]:
         """The key frame's textured points tracked into ``current``: where they were and went, undistorted."""
-        key_prev, key_next = track_points(key.image, current.image, key.textured_px, TRACK_WINDOW_PX)
+        bottom = min(key.bottom_px, current.bottom_px)  # where the two frames' view ends (a bonnet found)
+        points = key.textured_px[key.textured_px[:, 1] < bottom]
+        key_prev, key_next = track_points(key.image[:bottom], current.image[:bottom], points, TRACK_WINDOW_PX)
         return self.road.undistort(key_prev), self.road.undistort(key_next)
 
     def motion(self, times_s: tuple[float, float], previous: GeometryFrame, flow: GeometryFlow) -> np.ndarray:
@@ -443,7 +456,8 @@ class FlowGeometryStep(WorkingFrames):
              "rolls_taken_deg": self.road_length.rolls_taken_deg}
         kept.update(self.checks.summary())
         kept["still_regions"] = {"road_cells": self.road.still.still_cells,
-                                 "track_cells": self.still_tracks.still_cells}
+                                 "track_cells": self.still_tracks.still_cells,
+                                 "view_ends_at_row": self.view_bottom.frame_row(self.frame_rows)}
         kept["speed_limit"] = {"max_speed_mps": self.speed.max_speed_mps * self.metres_per_unit,
                                "refused_measurements": self.speed.implausible_measurements + self.road_too_fast_steps}
         if self.stage is not None:

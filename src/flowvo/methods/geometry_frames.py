@@ -19,8 +19,9 @@ class GeometryFrame:
     :meth:`~flowvo.methods.flowvo.FlowGeometryStep.complete` has made it), and ``continued_next``: where the previous
     frame's tracks (its ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per
     frame, in order, in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks``
-    tracked over many frames (:mod:`flowvo.odometry.landmark_tracks`); pixels of the (distorted) working frame
-    unless said."""
+    tracked over many frames (:mod:`flowvo.odometry.landmark_tracks`); ``bottom_px``: where the frame's view of the
+    scene ends (the first row of a bonnet or dashboard found across it, :meth:`StillRegions.band_top_px`; the image's
+    height without one); pixels of the (distorted) working frame unless said."""
 
     image: np.ndarray
     textured_px: np.ndarray
@@ -33,6 +34,11 @@ class GeometryFrame:
     continued_next: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), np.float32))
     landmarks: Landmarks | None = None
     fit_pending: bool = False
+    bottom_px: int = 0
+
+    def __post_init__(self) -> None:
+        if not self.bottom_px:
+            object.__setattr__(self, "bottom_px", self.image.shape[0])
 
 
 @dataclass(frozen=True)

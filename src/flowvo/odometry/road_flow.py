@@ -6,6 +6,8 @@ Pixels: the working frame's (distorted where the camera has a lens); the points 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
@@ -38,8 +40,11 @@ class RoadFlow:
     reference width). The crop and grid start below the horizon of a camera pitched up or rolled
     (:meth:`place`)."""
 
-    def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0) -> None:
+    def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0,
+                 min_side_px: int = 0) -> None:
         self.camera, self.K, self.working_hw, self.scale = camera, camera.intrinsics.K, working_hw, scale
+        self.min_side_px = min_side_px  # the flow's field must keep this many pixels a side (a view cut short by a
+        # bonnet keeps the whole crop otherwise)
         self.estimator = create_estimator(flow_method)
         self.horizon_below_px: float | None = None  # how far below the principal point the crop and grid start
         self.place(camera.pitch_deg, camera.roll_deg)
@@ -67,19 +72,34 @@ class RoadFlow:
         # point: a bonnet's edge cuts through cells; judged from the grid's middle row down (a camera pitched up: 21
         # far points were taken for still)
         self._keep: np.ndarray | None = None  # the grid points outside the still cells (None: all)
-        rows, columns = np.mgrid[self.crop[0], self.crop[1]]
-        self._crop_ideal_px = self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
+        self._views: dict[int, RoadView] = {}
         return True
+
+    def view(self, bottom_px: int) -> RoadView:
+        """The crop and grid of frames whose view of the scene ends at row ``bottom_px`` (a bonnet found across the
+        frame; the frame's height: none): the crop stops there, and the grid ``GRID_MARGIN_PX`` above it, as at the
+        frame's bottom edge. Kept for each bottom (it changes a few times a drive at most)."""
+        bottom_px = min(bottom_px, self.working_hw[0])
+        if bottom_px - self.crop[0].start < self.min_side_px:
+            bottom_px = self.working_hw[0]
+        if bottom_px not in self._views:
+            crop = (slice(self.crop[0].start, min(self.crop[0].stop, bottom_px)), self.crop[1])
+            grid = self.grid_px[:, 1] < bottom_px - GRID_MARGIN_PX
+            rows, columns = np.mgrid[crop[0], crop[1]]
+            ideal_px = None if self.camera.distortion.is_none else \
+                self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
+            self._views[bottom_px] = RoadView(bottom_px, crop, grid, ideal_px)
+        return self._views[bottom_px]
 
     def undistort(self, points_px: np.ndarray) -> np.ndarray:
         """Working-frame pixels (N, 2) to ideal pinhole pixels."""
         return undistort_points(points_px, self.K, self.camera.distortion)
 
     def measure(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None,
-                unpredicted: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                unpredicted: np.ndarray | None = None, bottom_px: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """The road grid points of working frame ``previous`` that stay in view, and where they are in
         ``current``, each (R, 2), undistorted working pixels (:func:`road_points_in_view`: the nearest road
-        leaves the frame on a long step).
+        leaves the frame on a long step; ``bottom_px``: where the two frames' view ends, :meth:`view`).
 
         With a ``prediction`` (a road homography ``previous -> current`` on undistorted working pixels: the
         default method passes the last step's plane and motion, constant velocity, where that step found the
@@ -91,52 +111,74 @@ class RoadFlow:
         motion over 12 px was predicted. The homography acts on undistorted pixels; with lens
         distortion the warp goes through the lens. ``unpredicted``: :meth:`unpredicted` of the same frames where it
         was made already (without a prediction), so that DIS does not measure it twice."""
-        moved = self._moved(previous, current, prediction) if unpredicted is None else unpredicted
-        if self.still.observe(self.grid_px, row_norms(moved - self.grid_undistorted_px)):
+        view = self.view(self.working_hw[0] if bottom_px is None else bottom_px)
+        moved = self._moved(previous, current, prediction, view) if unpredicted is None else unpredicted
+        grid_px, grid_undistorted_px = self.grid_px[view.grid], self.grid_undistorted_px[view.grid]
+        if self.still.observe(grid_px, row_norms(moved - grid_undistorted_px)):
             self._keep = self.still.keep(self.grid_px) if self.still.still_cells else None
+        view_hw = (view.bottom_px, self.working_hw[1])
         if self._keep is None:
-            return road_points_in_view(self.grid_undistorted_px, moved, self.working_hw)
-        return road_points_in_view(self.grid_undistorted_px[self._keep], moved[self._keep], self.working_hw)
+            return road_points_in_view(grid_undistorted_px, moved, view_hw)
+        keep = self._keep[view.grid]
+        return road_points_in_view(grid_undistorted_px[keep], moved[keep], view_hw)
 
-    def unpredicted(self, previous: np.ndarray, current: np.ndarray) -> np.ndarray:
-        """Where every road grid point of working frame ``previous`` is in ``current`` by the road crop's flow
-        without a prediction (R, 2), undistorted working pixels; nothing judged yet (:meth:`measure` does)."""
-        return self._moved(previous, current, None)
+    def unpredicted(self, previous: np.ndarray, current: np.ndarray, bottom_px: int | None = None) -> np.ndarray:
+        """Where each road grid point of working frame ``previous`` in view (:meth:`view`) is in ``current`` by the
+        road crop's flow without a prediction (R, 2), undistorted working pixels; nothing judged yet (:meth:`measure`
+        does)."""
+        return self._moved(previous, current, None, self.view(self.working_hw[0] if bottom_px is None else bottom_px))
 
-    def best_prediction(self, previous: np.ndarray, current: np.ndarray, predictions: list[np.ndarray]) -> np.ndarray:
+    def best_prediction(self, previous: np.ndarray, current: np.ndarray, predictions: list[np.ndarray],
+                        bottom_px: int | None = None) -> np.ndarray:
         """Of road homographies ``previous -> current`` (undistorted working pixels), the one whose warp of ``current``
         matches ``previous``'s road crop best (least mean absolute difference of grey levels, with the cheaper
         bilinear warp): how a drive that starts fast finds its road's motion before any prediction exists."""
-        previous_crop = previous[self.crop].astype(np.float32)
-        differences = [float(np.mean(np.abs(self._warped(current, prediction, cv2.INTER_LINEAR) - previous_crop)))
-                       for prediction in predictions]
+        view = self.view(self.working_hw[0] if bottom_px is None else bottom_px)
+        previous_crop = previous[view.crop].astype(np.float32)
+        differences = [float(np.mean(np.abs(self._warped(current, prediction, view, cv2.INTER_LINEAR) -
+                                            previous_crop))) for prediction in predictions]
         return predictions[int(np.argmin(differences))]
 
-    def _warped(self, current: np.ndarray, prediction: np.ndarray, interpolation: int = ROAD_WARP_INTERPOLATION
-                ) -> np.ndarray:
-        """Working frame ``current`` warped onto the road crop by the road homography ``prediction`` (undistorted
-        working pixels, the crop's frame to ``current``; through the lens where the camera has one)."""
-        height, width = self.crop_hw
+    def _warped(self, current: np.ndarray, prediction: np.ndarray, view: RoadView,
+                interpolation: int = ROAD_WARP_INTERPOLATION) -> np.ndarray:
+        """Working frame ``current`` warped onto the ``view``'s road crop by the road homography ``prediction``
+        (undistorted working pixels, the crop's frame to ``current``; through the lens where the camera has one);
+        what lies beyond the view's bottom row repeats it, as beyond the frame's edges."""
+        current = current[: view.bottom_px]
+        height, width = view.crop[0].stop - view.crop[0].start, view.crop[1].stop - view.crop[1].start
         if self.camera.distortion.is_none:
             return cv2.warpPerspective(current, prediction @ self._crop_to_frame, (width, height),
                                        flags=interpolation | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
-        ideal_in_current = _transform(self._crop_ideal_px, prediction)
+        ideal_in_current = _transform(view.ideal_px, prediction)
         source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
         source = source.reshape(height, width, 2)
         return cv2.remap(current, source[..., 0], source[..., 1], interpolation, borderMode=cv2.BORDER_REPLICATE)
 
-    def _moved(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None) -> np.ndarray:
-        """Where every road grid point of ``previous`` is in ``current`` (R, 2), undistorted working pixels
-        (see :meth:`measure`)."""
-        grid = self.grid_px - self.crop_origin
-        previous_crop = np.ascontiguousarray(previous[self.crop])
+    def _moved(self, previous: np.ndarray, current: np.ndarray, prediction: np.ndarray | None, view: RoadView
+               ) -> np.ndarray:
+        """Where each road grid point of ``previous`` in the ``view`` is in ``current`` (R, 2), undistorted working
+        pixels (see :meth:`measure`)."""
+        grid = self.grid_px[view.grid] - self.crop_origin
+        previous_crop = np.ascontiguousarray(previous[view.crop])
         if prediction is None:
-            flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[self.crop]))
+            flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[view.crop]))
             return self.undistort(follow_flow(grid, flow) + self.crop_origin)
-        flow = self.estimator.estimate(previous_crop, self._warped(current, prediction))
+        flow = self.estimator.estimate(previous_crop, self._warped(current, prediction, view))
         if self.camera.distortion.is_none:
             return _transform(follow_flow(grid, flow), prediction @ self._crop_to_frame)
         return _transform(self.undistort(follow_flow(grid, flow) + self.crop_origin), prediction)
+
+
+@dataclass(frozen=True)
+class RoadView:
+    """The road crop and grid of frames whose view of the scene ends at ``bottom_px`` (:meth:`RoadFlow.view`):
+    ``crop`` (rows, columns), which grid points lie in it (``grid``, (G,) bool over :attr:`RoadFlow.grid_px`), and
+    the crop's pixels undistorted (``ideal_px``, for the warp through a lens; None for a pinhole)."""
+
+    bottom_px: int
+    crop: tuple[slice, slice]
+    grid: np.ndarray
+    ideal_px: np.ndarray | None
 
 
 def _transform(points_px: np.ndarray, homography: np.ndarray) -> np.ndarray:

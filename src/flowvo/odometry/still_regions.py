@@ -101,6 +101,15 @@ class StillRegions:
             return np.ones(len(points_px), bool)
         return ~self.kept_out[self._cells(points_px)]
 
+    def band_top_px(self) -> int | None:
+        """The first pixel row of the rows kept out across the frame's whole width (with ``band``: a bonnet, a
+        dashboard) that reach its bottom edge; None where the bottom row of cells is not one of them, or where every
+        row is."""
+        rows = self.kept_out.reshape(self.shape).all(axis=1)
+        if not rows[-1] or rows.all():
+            return None
+        return int(np.ceil((len(rows) - int(np.argmin(rows[::-1]))) * self.cell_px))
+
     @property
     def still_cells(self) -> int:
         """How many cells are still now."""
