@@ -20,8 +20,8 @@ class GeometryFrame:
     frame's tracks (its ``tracked_next``, rows ``continued_rows``) went on to in this frame (computed once per
     frame, in order, in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks``
     tracked over many frames (:mod:`flowvo.odometry.landmark_tracks`); ``bottom_px``: where the frame's view of the
-    scene ends (the first row of a bonnet or dashboard found across it, :meth:`StillRegions.band_top_px`; the image's
-    height without one); pixels of the (distorted) working frame unless said."""
+    scene ends (a row above the edge of a bonnet or dashboard found across it, :mod:`flowvo.odometry.view_bottom`; the
+    image's height without one); pixels of the (distorted) working frame unless said."""
 
     image: np.ndarray
     textured_px: np.ndarray
