@@ -6,7 +6,10 @@ tell that a band stands still across the bottom rows, to a cell. The edge is the
 mean image, where the moving scene blurs and the still edge stays sharp: in each of the middle half of the columns,
 the row of the steepest vertical change of grey level, their median (synthetic bonnets: the row itself; the real
 dash-cam: 323-324 of 349). The view ends a row above it, so that no row of paint is left (3 rows left in view cost more
-than the cut gained; a cut 5 rows too high lost as much). Found once, it stays: a bonnet does not leave.
+than the cut gained; a cut 5 rows too high lost as much). Found once, it stays: a bonnet does not leave. A car that
+fills the bottom rows across a quarter of the width at the same speed long enough to be judged still (8 moving steps)
+would end the view for the rest of the drive too (not seen on any drive here; the cells below the cut are no longer
+observed, so nothing tells that it left).
 
 Pixels of the working frame (distorted, as the frames come); rows from the top.
 """
