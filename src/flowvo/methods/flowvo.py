@@ -236,7 +236,7 @@ class FlowGeometryStep(WorkingFrames):
         if key is previous and self.road_key.prediction is None and self.speed.last_speed_mps is None and \
                 current.pair_fit is not None:
             unpredicted = self.road.unpredicted(previous.image, current.image, bottom)
-            grid_px = self.road.grid_undistorted_px[self.road.view(bottom).grid]
+            grid_px = self.road.view(bottom).grid_undistorted_px
             if not road_flow_within_reach(row_norms(unpredicted - grid_px), self.dis_reach_px, predicted=False):
                 self.road_key.prediction, unpredicted = self._swept_prediction(previous, current, bottom), None
         road = self.road.measure(key.image, current.image, self.road_key.prediction, unpredicted, bottom)

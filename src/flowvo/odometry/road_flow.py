@@ -75,11 +75,11 @@ class RoadFlow:
         self._views: dict[int, RoadView] = {}
         return True
 
-    def view(self, bottom_px: int) -> RoadView:
+    def view(self, bottom_px: int | None = None) -> RoadView:
         """The crop and grid of frames whose view of the scene ends at row ``bottom_px`` (a bonnet found across the
-        frame; the frame's height: none): the crop stops there, and the grid ``GRID_MARGIN_PX`` above it, as at the
-        frame's bottom edge. Kept for each bottom (it changes a few times a drive at most)."""
-        bottom_px = min(bottom_px, self.working_hw[0])
+        frame; None or the frame's height: none): the crop stops there, and the grid ``GRID_MARGIN_PX`` above it, as
+        at the frame's bottom edge. Kept for each bottom (it changes once a drive at most)."""
+        bottom_px = self.working_hw[0] if bottom_px is None else min(bottom_px, self.working_hw[0])
         if bottom_px - self.crop[0].start < self.min_side_px:
             bottom_px = self.working_hw[0]
         if bottom_px not in self._views:
@@ -88,7 +88,8 @@ class RoadFlow:
             rows, columns = np.mgrid[crop[0], crop[1]]
             ideal_px = None if self.camera.distortion.is_none else \
                 self.undistort(np.stack([columns.ravel(), rows.ravel()], axis=1).astype(np.float32))
-            self._views[bottom_px] = RoadView(bottom_px, crop, grid, ideal_px)
+            self._views[bottom_px] = RoadView(bottom_px, crop, grid, self.grid_px[grid], self.grid_undistorted_px[grid],
+                                              ideal_px)
         return self._views[bottom_px]
 
     def undistort(self, points_px: np.ndarray) -> np.ndarray:
@@ -111,29 +112,28 @@ class RoadFlow:
         motion over 12 px was predicted. The homography acts on undistorted pixels; with lens
         distortion the warp goes through the lens. ``unpredicted``: :meth:`unpredicted` of the same frames where it
         was made already (without a prediction), so that DIS does not measure it twice."""
-        view = self.view(self.working_hw[0] if bottom_px is None else bottom_px)
+        view = self.view(bottom_px)
         moved = self._moved(previous, current, prediction, view) if unpredicted is None else unpredicted
-        grid_px, grid_undistorted_px = self.grid_px[view.grid], self.grid_undistorted_px[view.grid]
-        if self.still.observe(grid_px, row_norms(moved - grid_undistorted_px)):
+        if self.still.observe(view.grid_px, row_norms(moved - view.grid_undistorted_px)):
             self._keep = self.still.keep(self.grid_px) if self.still.still_cells else None
         view_hw = (view.bottom_px, self.working_hw[1])
         if self._keep is None:
-            return road_points_in_view(grid_undistorted_px, moved, view_hw)
+            return road_points_in_view(view.grid_undistorted_px, moved, view_hw)
         keep = self._keep[view.grid]
-        return road_points_in_view(grid_undistorted_px[keep], moved[keep], view_hw)
+        return road_points_in_view(view.grid_undistorted_px[keep], moved[keep], view_hw)
 
     def unpredicted(self, previous: np.ndarray, current: np.ndarray, bottom_px: int | None = None) -> np.ndarray:
         """Where each road grid point of working frame ``previous`` in view (:meth:`view`) is in ``current`` by the
         road crop's flow without a prediction (R, 2), undistorted working pixels; nothing judged yet (:meth:`measure`
         does)."""
-        return self._moved(previous, current, None, self.view(self.working_hw[0] if bottom_px is None else bottom_px))
+        return self._moved(previous, current, None, self.view(bottom_px))
 
     def best_prediction(self, previous: np.ndarray, current: np.ndarray, predictions: list[np.ndarray],
                         bottom_px: int | None = None) -> np.ndarray:
         """Of road homographies ``previous -> current`` (undistorted working pixels), the one whose warp of ``current``
         matches ``previous``'s road crop best (least mean absolute difference of grey levels, with the cheaper
         bilinear warp): how a drive that starts fast finds its road's motion before any prediction exists."""
-        view = self.view(self.working_hw[0] if bottom_px is None else bottom_px)
+        view = self.view(bottom_px)
         previous_crop = previous[view.crop].astype(np.float32)
         differences = [float(np.mean(np.abs(self._warped(current, prediction, view, cv2.INTER_LINEAR) -
                                             previous_crop))) for prediction in predictions]
@@ -158,7 +158,7 @@ class RoadFlow:
                ) -> np.ndarray:
         """Where each road grid point of ``previous`` in the ``view`` is in ``current`` (R, 2), undistorted working
         pixels (see :meth:`measure`)."""
-        grid = self.grid_px[view.grid] - self.crop_origin
+        grid = view.grid_px - self.crop_origin
         previous_crop = np.ascontiguousarray(previous[view.crop])
         if prediction is None:
             flow = self.estimator.estimate(previous_crop, np.ascontiguousarray(current[view.crop]))
@@ -172,12 +172,15 @@ class RoadFlow:
 @dataclass(frozen=True)
 class RoadView:
     """The road crop and grid of frames whose view of the scene ends at ``bottom_px`` (:meth:`RoadFlow.view`):
-    ``crop`` (rows, columns), which grid points lie in it (``grid``, (G,) bool over :attr:`RoadFlow.grid_px`), and
-    the crop's pixels undistorted (``ideal_px``, for the warp through a lens; None for a pinhole)."""
+    ``crop`` (rows, columns), which grid points lie in it (``grid``, (G,) bool over :attr:`RoadFlow.grid_px`) and
+    those points (``grid_px``, and undistorted ``grid_undistorted_px``), and the crop's pixels undistorted
+    (``ideal_px``, for the warp through a lens; None for a pinhole)."""
 
     bottom_px: int
     crop: tuple[slice, slice]
     grid: np.ndarray
+    grid_px: np.ndarray
+    grid_undistorted_px: np.ndarray
     ideal_px: np.ndarray | None
 
 
