@@ -47,3 +47,14 @@ def test_quiet_flag_switches_bars_off(monkeypatch, tmp_path, flag_position):
     args.insert(flag_position, "-q")
     main(args)
     assert progress_module._enabled is False
+
+
+def test_a_silent_iteration_makes_no_lock_between_processes():
+    """tqdm's first bar creates a named semaphore; a batch worker ended while creating it leaves it behind."""
+    code = ("from tqdm import tqdm\n"
+            "from flowvo.progress import progress\n"
+            "assert list(progress(range(3), 'counting', 3)) == [0, 1, 2]\n"
+            "print(hasattr(tqdm, '_lock'))\n")
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
+                            env={**os.environ, "FLOWVO_PROGRESS": "0"})
+    assert result.stdout.strip() == "False"
