@@ -48,6 +48,7 @@ from flowvo.odometry.road_scale import (
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
+from flowvo.odometry.static_layer import StaticLayer
 from flowvo.odometry.still_regions import STILL_SHARE, StillRegions
 from flowvo.odometry.two_view import (
     EssentialMotion,
@@ -79,6 +80,10 @@ MIN_ROAD_PARALLAX_PX = 1.0  # at the reference width: a road whose points moved 
 # ten of them) since the road key frame has lost its flow (no texture; synthetic replay 10, 0.3-1.5 px at 0.5-0.9 m
 # a step: flowvo-geometry 28.3 % without this gate, 6.9 % with it); the median instead of the 90th percentile
 # also rejected real clip 07's start at walking pace, where the far rows barely move
+LAYER_MOVING_PX = 3.0  # at the reference width: the tracks below the road's horizon moved this much in the median, or
+# their frame stays out of the still layer's long exposure (:mod:`flowvo.odometry.static_layer`): the road of a slow
+# start moves less than its texture's grain, and the two halves' exposures then share it (at 1 px, a synthetic
+# dash-cam's first 40 frames read a layer of 0.10 that is not there)
 STILL_TRACKS_FROM = 0.25  # frame heights below the principal point: tracks from there down are judged for still
 # regions (odometry.still_regions; KITTI: the road 10 m ahead and nearer; nearer the horizon distant points ahead
 # barely move, and on real clip 06 cells at 0.1-0.2 were taken for still)
@@ -140,6 +145,10 @@ class FlowGeometryStep(WorkingFrames):
         self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
                                          STILL_SHARE / 2, band=True)
         self.view_bottom = ViewBottom(self.working_hw, self.still_tracks.first_row, self.still_tracks.cell_px)
+        crop_rows = self.road.crop[0]
+        self.static_layer = StaticLayer(self.working_hw, (slice(crop_rows.start, min(crop_rows.stop, int(
+            self.still_tracks.first_row))), self.road.crop[1]), (self.K[0, 2], self.K[1, 2]),
+            self.still_tracks.cell_px)  # judged above the rows where a bonnet is looked for
         self.frame_rows = image_size_hw[0]  # the frames' own height, for run.json's rows
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
@@ -147,6 +156,7 @@ class FlowGeometryStep(WorkingFrames):
                               f"needs at least {MIN_FLOW_SIDE_PX} px a side (frames at least 90 px high and "
                               f"{MIN_FRAME_WIDTH_PX} px wide work)")
         self.still_flow_px = STILL_FLOW_PX * scale
+        self.layer_moving_px = LAYER_MOVING_PX * scale
         self.threshold_px = ESSENTIAL_THRESHOLD_PX * scale
         self.robust_scale_px = ROBUST_SCALE_PX * scale
         self.speed = SpeedPrior(max_speed_mps=MAX_SPEED_MPS * KITTI_CAMERA_HEIGHT_M / LOW_CAMERA_HEIGHT_M)  # in the
@@ -182,7 +192,9 @@ class FlowGeometryStep(WorkingFrames):
         """The working frame, its textured points and the tracks from the previous frame (tracking here balances the
         reader and flow threads: measured 85 -> 98 frames/s on two cores, clip 07); their essential fit is left
         to :meth:`complete`. Once the still tracks find a bonnet, the frames' view ends above its edge
-        (:mod:`flowvo.odometry.view_bottom`): points and tracks stay above it, and so does the road."""
+        (:mod:`flowvo.odometry.view_bottom`): points and tracks stay above it, and so does the road. A still layer
+        over the road (a reflection in the windshield, :mod:`flowvo.odometry.static_layer`) is taken out of the frame
+        the road's flow is measured on."""
         working = super().prepare(image)
         previous = self._previous
         if previous is None:
@@ -199,16 +211,21 @@ class FlowGeometryStep(WorkingFrames):
         moved, found = lucas_kanade(previous.image[:bottom], working[:bottom], start, TRACK_WINDOW_PX)  # one call:
         # each point is tracked alone
         tracked_prev, tracked_next = start[:count][found[:count]], moved[:count][found[:count]]
-        self.still_tracks.observe(tracked_prev, row_norms(tracked_next - tracked_prev))
+        motion_px = row_norms(tracked_next - tracked_prev)
+        self.still_tracks.observe(tracked_prev, motion_px)
         self.view_bottom.observe(working)
         bottom = self.view_bottom.settle(self.still_tracks.band_top_px())
+        below = motion_px[tracked_prev[:, 1] >= self.static_layer.region[0].start]  # the road's, and what stands on it
+        self.static_layer.observe(working, bool(len(below)) and median(below) >= self.layer_moving_px, tracked_prev,
+                                  tracked_next - tracked_prev)
         textured = textured_points(working[:bottom])
         if self.still_tracks.still_cells:  # no new tracks from a bonnet, a dashboard, a watermark
             textured = textured[self.still_tracks.keep(textured)]
         pair = self.road.undistort(tracked_prev), self.road.undistort(tracked_next)
         self._previous = GeometryFrame(working, textured, tracked_prev, tracked_next, *pair, None,
                                        continued_rows[found[count:]], moved[count:][found[count:]],
-                                       self._landmarks(working, textured), fit_pending=True, bottom_px=bottom)
+                                       self._landmarks(working, textured), fit_pending=True, bottom_px=bottom,
+                                       road_image=self.static_layer.remove(working))
         return self._previous
 
     def complete(self, prepared: GeometryFrame) -> GeometryFrame:
@@ -235,11 +252,11 @@ class FlowGeometryStep(WorkingFrames):
         unpredicted = None
         if key is previous and self.road_key.prediction is None and self.speed.last_speed_mps is None and \
                 current.pair_fit is not None:
-            unpredicted = self.road.unpredicted(previous.image, current.image, bottom)
+            unpredicted = self.road.unpredicted(previous.road_image, current.road_image, bottom)
             grid_px = self.road.view(bottom).grid_undistorted_px
             if not road_flow_within_reach(row_norms(unpredicted - grid_px), self.dis_reach_px, predicted=False):
                 self.road_key.prediction, unpredicted = self._swept_prediction(previous, current, bottom), None
-        road = self.road.measure(key.image, current.image, self.road_key.prediction, unpredicted, bottom)
+        road = self.road.measure(key.road_image, current.road_image, self.road_key.prediction, unpredicted, bottom)
         key_tracks = (None, None) if key is previous else self._tracks_from(key, current)
         rotation_key = self.checks.rotation_key.frame
         rotation_tracks = (None, None) if rotation_key is None else \
@@ -253,7 +270,7 @@ class FlowGeometryStep(WorkingFrames):
         and its road moved beyond DIS's reach."""
         normal = in_camera_frame(RoadPlane.level(KITTI_CAMERA_HEIGHT_M), self.road_length.levelling).normal
         fit = current.pair_fit
-        return self.road.best_prediction(previous.image, current.image, [
+        return self.road.best_prediction(previous.road_image, current.road_image, [
             metric_road_homography(self.K, se3_next_prev(fit.R, fit.t_dir * length), normal, KITTI_CAMERA_HEIGHT_M)
             for length in ACQUISITION_STEPS], bottom_px)
 
@@ -446,7 +463,8 @@ class FlowGeometryStep(WorkingFrames):
         instead of the fit's (:mod:`flowvo.odometry.travel_direction`), how many took the last yaw rate instead of the
         fit's (:mod:`flowvo.odometry.yaw_rate`), how many steps' rotations were measured from an earlier key frame
         (:mod:`flowvo.odometry.rotation_key`), how many cells of the road grid and of the tracked points stood still
-        at the end (a bonnet: :mod:`flowvo.odometry.still_regions`), how many measured speeds were refused as faster
+        at the end (a bonnet: :mod:`flowvo.odometry.still_regions`), the still layer over the road
+        (:mod:`flowvo.odometry.static_layer`), how many measured speeds were refused as faster
         than a car could have driven (``speed_limit``: ``MAX_SPEED_MPS`` for a camera ``LOW_CAMERA_HEIGHT_M`` high, in
         proportion to the height, lower soon after a standstill), and the window stage's record
         (:meth:`WindowStage.summary`)."""
@@ -458,6 +476,7 @@ class FlowGeometryStep(WorkingFrames):
         kept["still_regions"] = {"road_cells": self.road.still.still_cells,
                                  "track_cells": self.still_tracks.still_cells,
                                  "view_ends_at_row": self.view_bottom.frame_row(self.frame_rows)}
+        kept["static_layer"] = self.static_layer.record()
         kept["speed_limit"] = {"max_speed_mps": self.speed.max_speed_mps * self.metres_per_unit,
                                "refused_measurements": self.speed.implausible_measurements + self.road_too_fast_steps}
         if self.stage is not None:

@@ -21,7 +21,9 @@ class GeometryFrame:
     frame, in order, in the reader thread; empty for the first frame), and for ``flowvo-ba`` the ``landmarks``
     tracked over many frames (:mod:`flowvo.odometry.landmark_tracks`); ``bottom_px``: where the frame's view of the
     scene ends (a row above the edge of a bonnet or dashboard found across it, :mod:`flowvo.odometry.view_bottom`; the
-    image's height without one); pixels of the (distorted) working frame unless said."""
+    image's height without one); ``road_image``: the frame the road's flow is measured on (``image`` without a still
+    layer over the road, :mod:`flowvo.odometry.static_layer`; ``image`` itself without one); pixels of the (distorted)
+    working frame unless said."""
 
     image: np.ndarray
     textured_px: np.ndarray
@@ -35,10 +37,13 @@ class GeometryFrame:
     landmarks: Landmarks | None = None
     fit_pending: bool = False
     bottom_px: int = 0
+    road_image: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         if not self.bottom_px:
             object.__setattr__(self, "bottom_px", self.image.shape[0])
+        if self.road_image is None:
+            object.__setattr__(self, "road_image", self.image)
 
 
 @dataclass(frozen=True)
