@@ -8,10 +8,9 @@ its flow. How much of the road's texture the layer holds: the gradient energy al
 of the earlier and the later half of the frames share, over the frames' own, across the road crop. A layer's edges
 count across every direction; a lane line runs along the flow and does not count; what is left of the moving road in
 either half's exposure differs between the halves and cancels in the mean (a single exposure over n frames keeps
-1-3.5 / n of the road's texture).
-Over :data:`STILL_LAYER_SHARE`, the long exposure (less its mean grey level) is taken out of the frames the road's
-flow is measured on. The road's flow runs where the tracks in its part of the frame ran, away from where the car
-heads (the principal point only for a camera mounted level).
+1-3.5 / n of the road's texture). Over :data:`STILL_LAYER_SHARE`, the long exposure (less its mean grey level) is
+taken out of the frames the road's flow is measured on. The road's flow runs where the tracks in its part of the
+frame ran, away from where the car heads (the principal point only for a camera mounted level).
 
 Pixels of the working frame (distorted, as the frames come).
 """
@@ -32,15 +31,15 @@ ENERGY_EVERY = 4  # moving frames between two samples of the frames' own gradien
 
 class StaticLayer:
     """The still layer of working frames of ``image_hw`` (pixels), judged over ``region`` (rows, columns: the road
-    crop above the bottom rows, where a bonnet is still but not over the road). The road's flow direction is the
-    tracks' own, summed in cells of ``cell_px`` (a camera pitched or rolled and not told so has its flow run away from
-    a point far from the principal point); cells no track started in take the direction away from ``centre_px`` (x,
-    y). Judged at :data:`FIRST_JUDGED_AT` moving frames and again whenever their count doubles, so that a road key
-    frame and the frame measured from it are rarely cleaned by different layers."""
+    crop as placed at the start, above the bottom rows, where a bonnet is still but not over the road). The road's
+    flow direction is the tracks' own, summed in cells of ``cell_px`` (a camera pitched or rolled and not told so has
+    its flow run away from a point far from the principal point); cells no track started in take the direction away
+    from ``centre_px`` (x, y). Judged at :data:`FIRST_JUDGED_AT` moving frames and again whenever their count doubles,
+    so that a road key frame and the frame measured from it are rarely cleaned by different layers."""
 
     def __init__(self, image_hw: tuple[int, int], region: tuple[slice, slice], centre_px: tuple[float, float],
                  cell_px: float) -> None:
-        self.region, self.cell_px = region, cell_px
+        self.region = region
         rows, columns = np.mgrid[region[0], region[1]].astype(np.float32)
         dx, dy = columns - centre_px[0], rows - centre_px[1]
         length = np.maximum(np.hypot(dx, dy), 1e-3)
