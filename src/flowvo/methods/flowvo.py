@@ -145,10 +145,11 @@ class FlowGeometryStep(WorkingFrames):
         self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
                                          STILL_SHARE / 2, band=True)
         self.view_bottom = ViewBottom(self.working_hw, self.still_tracks.first_row, self.still_tracks.cell_px)
-        crop_rows = self.road.crop[0]
-        self.static_layer = StaticLayer(self.working_hw, (slice(crop_rows.start, min(crop_rows.stop, int(
-            self.still_tracks.first_row))), self.road.crop[1]), (self.K[0, 2], self.K[1, 2]),
-            self.still_tracks.cell_px)  # judged above the rows where a bonnet is looked for
+        crop_rows, crop_columns = self.road.crop
+        above_bonnet = slice(crop_rows.start, min(crop_rows.stop, int(self.still_tracks.first_row)))  # the layer is
+        # judged above the rows where a bonnet is looked for
+        self.static_layer = StaticLayer(self.working_hw, (above_bonnet, crop_columns), (self.K[0, 2], self.K[1, 2]),
+                                        self.still_tracks.cell_px)
         self.frame_rows = image_size_hw[0]  # the frames' own height, for run.json's rows
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
@@ -211,13 +212,14 @@ class FlowGeometryStep(WorkingFrames):
         moved, found = lucas_kanade(previous.image[:bottom], working[:bottom], start, TRACK_WINDOW_PX)  # one call:
         # each point is tracked alone
         tracked_prev, tracked_next = start[:count][found[:count]], moved[:count][found[:count]]
-        motion_px = row_norms(tracked_next - tracked_prev)
+        steps_px = tracked_next - tracked_prev
+        motion_px = row_norms(steps_px)
         self.still_tracks.observe(tracked_prev, motion_px)
         self.view_bottom.observe(working)
         bottom = self.view_bottom.settle(self.still_tracks.band_top_px())
         below = motion_px[tracked_prev[:, 1] >= self.static_layer.region[0].start]  # the road's, and what stands on it
         self.static_layer.observe(working, bool(len(below)) and median(below) >= self.layer_moving_px, tracked_prev,
-                                  tracked_next - tracked_prev)
+                                  steps_px)
         textured = textured_points(working[:bottom])
         if self.still_tracks.still_cells:  # no new tracks from a bonnet, a dashboard, a watermark
             textured = textured[self.still_tracks.keep(textured)]

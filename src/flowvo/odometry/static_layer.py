@@ -20,6 +20,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from flowvo.odometry.numeric import row_norms
+
 STILL_LAYER_SHARE = 0.045  # of the road's texture along the flow: over it, the layer is taken out, and it stays taken
 # out while over half of it. Frames without a layer read -0.043 to 0.039 from 40 moving frames on (real KITTI 01 / 03 /
 # 06 / 07 / 03 at 5 Hz, the synthetic replays of 08-10, the synthetic cameras of docs/synthetic_cameras.md, told their
@@ -76,12 +78,12 @@ class StaticLayer:
         self.frames += 1
         columns, rows = points_px[:, 0] - self.region[1].start, points_px[:, 1] - self.region[0].start
         inside = (rows >= 0) & (rows < self._cell_of.shape[0]) & (columns >= 0) & (columns < self._cell_of.shape[1])
-        lengths = np.hypot(motion_px[inside, 0], motion_px[inside, 1])
-        moved = lengths > 0
-        cells = self._cell_of[rows[inside][moved].astype(np.int64), columns[inside][moved].astype(np.int64)]
+        lengths = row_norms(motion_px)
+        inside &= lengths > 0
+        units = motion_px[inside] / lengths[inside, None]
+        cells = self._cell_of[rows[inside].astype(np.int64), columns[inside].astype(np.int64)]
         for axis in range(2):
-            self._directions[:, axis] += np.bincount(cells, motion_px[inside][moved, axis] / lengths[moved],
-                                                     minlength=len(self._directions))
+            self._directions[:, axis] += np.bincount(cells, units[:, axis], minlength=len(self._directions))
         if self.frames % ENERGY_EVERY == 1:
             gx, gy = self._gradients(image)
             self._moments += np.stack([gx * gx, gx * gy, gy * gy])
