@@ -344,7 +344,8 @@ class FlowGeometryStep(WorkingFrames):
         # against times.txt moved a drive's poses by 8e-4)
         slide_m = step_m if road_share_m is None else road_share_m
         self.road_key.slide(flow.current, time_s, se3_next_prev(fit.R, fit.t_dir * slide_m),
-                            self.road_length.normal.normal, near_px)
+                            self.road_length.normal.normal, near_px, span,
+                            self.road_length.noise.baseline_px(self.road_key.baseline_px))
         if self.window is not None:
             self._record_step(times_s, span, fit, (step_m, road_m, network_m), last_step, flow, mounting_taken)
         return motion_in_metres(self.last_motion, self.metres_per_unit)

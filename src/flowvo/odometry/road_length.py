@@ -11,12 +11,14 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.camera import mounting_of_road_normal, mounting_rotation
+from flowvo.odometry.numeric import percentile
+from flowvo.odometry.road_noise import RoadFlowNoise
 from flowvo.odometry.road_normal import RoadNormal
-from flowvo.odometry.road_plane import RoadPlane
-from flowvo.odometry.road_profile import RoadProfile
-from flowvo.odometry.road_scale import near_road_parallax_px, trusted_road_plane
+from flowvo.odometry.road_plane import RoadPlane, in_camera_frame
+from flowvo.odometry.road_profile import RoadProfile, road_residuals
+from flowvo.odometry.road_scale import NEAR_ROAD_PERCENTILE, road_points, trusted_plane_among
 from flowvo.odometry.road_tally import RoadPlaneTally
-from flowvo.odometry.two_view import EssentialMotion
+from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px
 
 
 class RoadLength:
@@ -42,6 +44,7 @@ class RoadLength:
         self.normal = RoadNormal()
         self.tally = RoadPlaneTally()
         self.profile = RoadProfile()
+        self.noise = RoadFlowNoise()
         self.near_parallax_px = 0.0  # the last trusted plane's near road motion beyond the rotation (pixels; 0: none)
 
     def advance(self, R_next_prev: np.ndarray, dt_s: float, step_m: float) -> None:
@@ -60,18 +63,22 @@ class RoadLength:
         under the key frame's motion ``key_fit``, and the metres travelled since the key frame; (None, None)
         without a fit or a trusted plane."""
         self.near_parallax_px = 0.0
-        if key_fit is None:
+        if key_fit is None or not len(road[0]):
             return None, None
-        near_px = near_road_parallax_px(road[0], road[1], self.K, key_fit.R)
+        parallax_px = translation_parallax_px(road[0], road[1], self.K, key_fit.R)
+        near_px = percentile(parallax_px, NEAR_ROAD_PERCENTILE)
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
-        plane = trusted_road_plane(road[0], road[1], self.K, key_fit, levelling=self.levelling, tally=self.tally,
-                                   profile=self.profile)
+        points = road_points(road[0], road[1], self.K, key_fit, levelling=self.levelling)
+        plane = None if points is None else trusted_plane_among(points, tally=self.tally, profile=self.profile)
+        levelling = self.levelling  # the frame the points and the plane are in (a mounting taken below changes it)
         self._level_by_the_drive()
         if plane is None:
             return None, None
+        self.noise.observe(road_residuals(points, plane), parallax_px)
         self.near_parallax_px = near_px
-        plane = self.normal.smoothed(plane, key_fit.R, keep=measured, camera_height_m=self.camera_height_m)
+        plane = self.normal.smoothed(in_camera_frame(plane, levelling), key_fit.R, keep=measured,
+                                     camera_height_m=self.camera_height_m)
         return plane, self.camera_height_m / plane.distance
 
     def _level_by_the_drive(self) -> None:

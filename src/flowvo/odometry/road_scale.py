@@ -125,8 +125,16 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
     ``profile``, the points it keeps are fitted, and it learns from every trusted plane
     (:class:`flowvo.odometry.road_profile.RoadProfile`)."""
     points = road_points(points_prev, points_next, K, motion, min_parallax_px, levelling)
-    if points is None:
-        return None
+    plane = None if points is None else trusted_plane_among(points, max_tilt_rad, min_inlier_fraction, tally, profile)
+    return None if plane is None else in_camera_frame(plane, levelling)
+
+
+def trusted_plane_among(points: np.ndarray, max_tilt_rad: float = MAX_ROAD_TILT_RAD,
+                        min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION, tally: RoadPlaneTally | None = None,
+                        profile: RoadProfile | None = None) -> RoadPlane | None:
+    """The plane fitted to triangulated road ``points`` (N, 3; units of the step) that passes
+    :func:`flowvo.odometry.road_plane.is_trusted_road`, in the points' frame, or None (``tally`` and ``profile`` as in
+    :func:`trusted_road_plane`)."""
     plane = fit_road_plane(points if profile is None else points[profile.keep(points)])
     if plane is None:
         return None
@@ -135,7 +143,7 @@ def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.n
         tally.add(plane, trusted, max_tilt_rad)
     if trusted and profile is not None:
         profile.observe(points, plane)
-    return in_camera_frame(plane, levelling) if trusted else None
+    return plane if trusted else None
 
 
 NEAR_ROAD_PERCENTILE = 90  # the near road moves most: its flow decides whether one step's road was within reach
