@@ -2,6 +2,8 @@
 road under a step (1 degree of turn; 0.3 m, within DIS's reach, and 1.5 m, beyond it) gives road grid points moved
 by that homography, measured as it is and through a predicted homography, with and without a lens."""
 
+import warnings
+
 import cv2
 import numpy as np
 import pytest
@@ -83,6 +85,21 @@ def test_a_long_step_measured_through_the_exact_prediction_moves_the_road_by_its
 def test_a_prediction_5_percent_long_leaves_a_residual_dis_measures():
     error, _ = errors_px(LensDistortion(), 1.5, 1.5 * 1.05)  # measured: 0.03 / 0.05 px
     assert np.median(error) < 0.05 and np.percentile(error, 90) < 0.1
+
+
+def test_a_prediction_that_sends_part_of_the_crop_to_infinity_through_a_lens_warns_of_nothing():
+    """A prediction whose horizon crosses the road crop (a wrong speed or normal, say) maps the pixels next to it to
+    millions of focal lengths away, where a lens with a sixth-order term overflowed float32 (a RuntimeWarning on the
+    user's console); those pixels now read the frame's border."""
+    lens = LensDistortion("plumb_bob", (-0.25, 0.07, 0.0, 0.0, -0.1))
+    road = RoadFlow(Camera(INTRINSICS, lens, HEIGHT_M), HW, "dis-road")
+    ideal_y = float(road.view().ideal_px[40 * HW[1], 1])  # a pixel of the crop's 40th row, undistorted
+    horizon = (ideal_y - K[1, 2]) / K[1, 1] * (1.0 + 3e-7)  # its normalised row, just past the prediction's horizon
+    prediction = K @ np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0 / horizon, 1.0]]) @ np.linalg.inv(K)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        before, after = road.measure(*frames(road_moved_by(0.3), lens), prediction)
+    assert np.isfinite(before).all() and np.isfinite(after).all()
 
 
 def test_road_points_that_leave_the_frame_are_dropped():

@@ -30,6 +30,7 @@ ROAD_WARP_INTERPOLATION = cv2.INTER_CUBIC  # how the current frame is warped ont
 # interpolation blurs it where the prediction falls between pixels, and DIS, matching it against the sharp previous
 # frame, measured 1-2 px of road flow 3.5-4.5 % long (bicubic: 2-3 %); real clips over working widths 600-640 px,
 # medians 1.15 / 0.95 / 1.32 -> 1.09 / 0.88 / 1.20 % (25 of the 33 widths better); Lanczos spread clip 06 1.54x
+OUTSIDE_PX = -1e4  # where a warp reads a point that has no place through the lens: far outside any frame
 
 
 class RoadFlow:
@@ -150,7 +151,10 @@ class RoadFlow:
             return cv2.warpPerspective(current, prediction @ self._crop_to_frame, (width, height),
                                        flags=interpolation | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_REPLICATE)
         ideal_in_current = _transform(view.ideal_px, prediction)
-        source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
+        with np.errstate(over="ignore", invalid="ignore"):  # a prediction whose horizon crosses the crop sends the
+            # points beyond it towards infinity, and the lens's polynomial overflows there
+            source = distort_points(ideal_in_current, self.K, self.camera.distortion).astype(np.float32)
+        source[~np.isfinite(source)] = OUTSIDE_PX  # outside the frame: the warp repeats its border there
         source = source.reshape(height, width, 2)
         return cv2.remap(current, source[..., 0], source[..., 1], interpolation, borderMode=cv2.BORDER_REPLICATE)
 
