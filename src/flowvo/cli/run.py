@@ -103,8 +103,8 @@ def _bowl_warning(planes: dict) -> str | None:
     side = "below" if far > 0 else "above"
     return (f"warning: the road {FAR_ROAD_H[0]:g}-{FAR_ROAD_H[1]:g} camera heights ahead lies {100 * abs(far):.0f} % "
             f"of the height {side} the plane through the nearer road (real KITTI: within 4 %): "
-            "the road is not a plane to the method, and its lengths are not to be trusted (a rolling shutter? a "
-            "wrong lens model? docs/dashcam.md)")
+            "the road is not a plane to the method, and its lengths are not to be trusted (a road flow too noisy for "
+            "its baseline? a wrong camera pitch, lens model or rolling shutter? docs/dashcam.md)")
 
 
 def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) -> str | None:

@@ -35,11 +35,13 @@ MIN_CELL_STEPS = 20  # steps a cell must be seen in before it is judged
 MIN_CELL_POINTS = 5  # points of one step a cell needs for that step's median
 
 FAR_ROAD_H = (10.0, 20.0)  # the road straight ahead this far (camera heights) tells whether the road points lie on a
-# plane at all: real KITTI's within 1.4-2.4 % of the height of the plane through the near road, the real dash-cam's
-# 18-35 % below it (docs/dashcam.md)
+# plane at all: real KITTI's within 1.4-2.4 % of the height of the plane through the near road; the real dash-cam's
+# 18-35 % below it while its noisy road flow was measured over one step, 3 % over the baseline its noise needs
+# (flowvo.odometry.road_noise, docs/dashcam.md)
 AHEAD_H = 1.0  # "straight ahead": cells within this far to a side (camera heights)
 FAR_ROAD_WARNING_SHARE = 0.10  # farther off the plane than this, the road is not a plane to the method (flowvo run
-# warns): real KITTI 01 / 03 / 06 / 07 read -0.000 / -0.035 / -0.001 / -0.016, the real dash-cam +0.28
+# warns): real KITTI 01 / 03 / 06 / 07 read -0.000 / -0.035 / -0.001 / -0.016, the real dash-cam +0.028 (+0.21 over
+# one step's baseline)
 
 SIDE_EDGES_H = np.arange(-SIDE_REACH_H, SIDE_REACH_H + SIDE_CELL_H / 2, SIDE_CELL_H)
 CELLS = (len(DEPTH_EDGES_H) + 1) * (len(SIDE_EDGES_H) + 1)
