@@ -35,14 +35,12 @@ def forward(yaw_rad: float = 0.0) -> EssentialMotion:
 
 
 def slow_step(key: RoadKeyFrame, frame: str, start_s: float, time_s: float, speed_mps: float | None = 2.0,
-              road_moved_px: float = 3.0, near_moved_px: float | None = None) -> RoadSpan:
-    """One step from ``frame`` at ``start_s`` to ``time_s`` whose road moved ``road_moved_px`` (its median point;
-    its near road ``near_moved_px``, None: twice that) under a trusted plane; its flow from the key frame where there
-    is one."""
+              road_moved_px: float = 3.0) -> RoadSpan:
+    """One step from ``frame`` at ``start_s`` to ``time_s`` whose road moved ``road_moved_px`` under a trusted
+    plane; its flow from the key frame where there is one."""
     span = key.begin(frame, start_s, key.frame is None)
     motion = forward()
-    near_px = 2.0 * road_moved_px if near_moved_px is None else near_moved_px
-    key.end(span, time_s, LEVEL, (road_moved_px, near_px), (motion, motion), 0.2 * span.steps, speed_mps)
+    key.end(span, time_s, LEVEL, road_moved_px, (motion, motion), 0.2 * span.steps, speed_mps)
     return span
 
 
@@ -69,19 +67,10 @@ def test_a_step_whose_road_moved_enough_leaves_no_key_frame():
     assert key.begin("c", 0.2, True) == RoadSpan("c", 0.2, 1, False, True)
 
 
-@pytest.mark.parametrize(("near_moved_px", "kept"), [(11.9, True), (12.0, False)])
-def test_a_key_frame_is_kept_only_where_the_near_road_stayed_within_reach_too(near_moved_px, kept):
-    """The median road point moved 3 px, under the key frame's 6, but the near road 12 px (a camera that sees mostly
-    far road, at speed): kept, the next step would measure it over two steps, beyond DIS's reach of 12 px."""
-    key: RoadKeyFrame[str] = RoadKeyFrame(K, KEY_ROAD_PX, HEIGHT_M, reach_px=12.0)
-    slow_step(key, "a", 0.0, 0.1, road_moved_px=3.0, near_moved_px=near_moved_px)
-    assert (key.frame == "a") == kept
-
-
 def test_a_step_without_a_trusted_plane_leaves_no_key_frame_and_no_prediction():
     key: RoadKeyFrame[str] = RoadKeyFrame(K, KEY_ROAD_PX, HEIGHT_M)
     span = key.begin("a", 0.0, True)
-    key.end(span, 0.1, None, (1.0, 2.0), (forward(), forward()), None, 2.0)
+    key.end(span, 0.1, None, 1.0, (forward(), forward()), None, 2.0)
     assert key.frame is None and key.prediction is None
 
 
@@ -125,12 +114,12 @@ def test_the_predicted_homography_maps_the_key_frames_road_into_the_next_frame()
     key: RoadKeyFrame[str] = RoadKeyFrame(K, KEY_ROAD_PX, HEIGHT_M)
     step = forward(0.01)
     span = key.begin("a", 0.0, True)
-    key.end(span, 0.1, LEVEL, (3.0, 6.0), (step, step), 0.2, 2.0)
+    key.end(span, 0.1, LEVEL, 3.0, (step, step), 0.2, 2.0)
     span = key.begin("b", 0.1, False)
     R_key = step.R @ step.R  # a -> c, 0.4 m: the translation of the two steps chained
     t_key_m = step.R @ step.t_dir * 0.2 + step.t_dir * 0.2
     key_motion = EssentialMotion(R_key, t_key_m / np.linalg.norm(t_key_m), step.inliers)
-    key.end(span, 0.2, LEVEL, (5.0, 10.0), (key_motion, step), float(np.linalg.norm(t_key_m)), 2.0)
+    key.end(span, 0.2, LEVEL, 5.0, (key_motion, step), float(np.linalg.norm(t_key_m)), 2.0)
     assert key.frame == "a"
     in_next = (ROAD @ R_key.T + t_key_m) @ step.R.T + step.t_dir * np.linalg.norm(t_key_m) / 2
     np.testing.assert_allclose(mapped(key.prediction, project(ROAD)), project(in_next), atol=1e-9)
@@ -143,7 +132,7 @@ def test_a_step_from_its_previous_frame_that_found_the_road_predicts_the_next_fl
     step = forward(0.02)
     plane = RoadPlane.level(HEIGHT_M / 1.2)
     span = key.begin("a", 0.0, True)
-    key.end(span, 0.1, plane, (8.0, 16.0), (step, step), 1.2, 12.0)
+    key.end(span, 0.1, plane, 8.0, (step, step), 1.2, 12.0)
     assert key.frame is None
     np.testing.assert_array_equal(key.prediction, road_homography(K, step, plane))
     np.testing.assert_allclose(mapped(key.prediction, project(ROAD)), project(ROAD @ step.R.T + step.t_dir * 1.2),

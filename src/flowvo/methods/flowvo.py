@@ -34,13 +34,12 @@ from flowvo.methods.geometry_frames import GeometryFlow, GeometryFrame
 from flowvo.odometry.bundle_window import BundleSettings, BundleWindow
 from flowvo.odometry.landmark_tracks import AGREE_PX, RETURN_PX, SPACING_PX, Landmarks, LandmarkTracker
 from flowvo.odometry.motion_checks import MotionChecks
-from flowvo.odometry.numeric import median, percentile, row_norms
+from flowvo.odometry.numeric import median, row_norms
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_key import BASELINE_PX, DIS_REACH_PX, KEY_ROAD_PX, RoadKeyFrame, RoadSpan
 from flowvo.odometry.road_length import RoadLength
 from flowvo.odometry.road_plane import RoadPlane, in_camera_frame
 from flowvo.odometry.road_scale import (
-    NEAR_ROAD_PERCENTILE,
     NetworkFallbackPolicy,
     metric_road_homography,
     road_flow_within_reach,
@@ -175,7 +174,7 @@ class FlowGeometryStep(WorkingFrames):
         self.road_length = RoadLength(self.K, KITTI_CAMERA_HEIGHT_M, self.camera.pitch_deg, self.camera.roll_deg,
                                       MIN_ROAD_PARALLAX_PX * scale)
         self.road_key: RoadKeyFrame[GeometryFrame] = RoadKeyFrame(self.K, KEY_ROAD_PX * scale, KITTI_CAMERA_HEIGHT_M,
-                                                                  BASELINE_PX * scale, DIS_REACH_PX * scale)
+                                                                  BASELINE_PX * scale)
         self.road_too_fast_steps = 0  # road lengths the window was not given: faster than a car could have driven
         if window is not None:
             self.stage = WindowStage(window, self.bundle, self.metres_per_unit)
@@ -328,9 +327,7 @@ class FlowGeometryStep(WorkingFrames):
             self.road.place(self.road_length.pitch_deg, self.road_length.roll_deg, MIN_FLOW_SIDE_PX)
         road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
         self.last_view = (time_s, flow, fit, plane)
-        near_moved_px = percentile(road_motion_px, NEAR_ROAD_PERCENTILE) if len(road_motion_px) else 0.0
-        self.road_key.end(span, time_s, plane, (road_moved_px, near_moved_px), (key_fit, fit), road_m,
-                          self.speed.last_speed_mps)
+        self.road_key.end(span, time_s, plane, road_moved_px, (key_fit, fit), road_m, self.speed.last_speed_mps)
         if road_m is not None and road_m > self.speed.max_speed_at(time_s) * (time_s - span.start_s):
             road_m = None  # faster than a car could have driven (a wrong plane): unmeasured, the network may step in
             self.road_too_fast_steps += 1

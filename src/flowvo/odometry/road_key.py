@@ -27,8 +27,7 @@ from flowvo.odometry.two_view import EssentialMotion
 DIS_REACH_PX = 12.0  # at the reference width: road motion DIS follows without a prediction; beyond, it
 # under-estimates it (one step's near road decides, a key frame's span its median: road_scale.road_flow_within_reach)
 KEY_ROAD_PX = DIS_REACH_PX / 2  # a step whose road moved less keeps its road key frame, so the road scale is
-# measured over a longer baseline (two such steps stay within DIS's reach, where its near road moved less than
-# DIS_REACH_PX too: synthetic bonnet 0.71 -> 0.69 %, camera 1.2 m high 0.55 -> 0.53, pitched up 2.22 -> 1.87;
+# measured over a longer baseline (two such steps stay within DIS's reach;
 # synthetic 30 frames/s drive: 8.4 -> 3.0 %, the same drive at 10: 3.2 -> 3.0 %; real clip 01 1.30 -> 1.10 %)
 MAX_ROAD_KEY_S = 0.5  # a road key frame older than this is replaced even when the road moved little
 MAX_KEY_PREDICTION_SPEED_MPS = 6.0  # below it a kept road key frame's flow is predicted too (as the previous
@@ -62,17 +61,12 @@ class RoadKeyFrame(Generic[Frame]):
     """The road key frame of a stream of steps (module docstring): ``frame`` is where the next step's road flow
     starts (None: the previous frame), ``prediction`` the road homography that flow is measured through (None:
     measured as it is). ``key_road_px``: the road motion (working pixels, median) under which a key frame is
-    kept, ``reach_px`` the near road's motion (working pixels, its 90th percentile) under which it may be (a camera
-    that sees mostly far road, a bonnet over its near rows, moves its median road point little at speed while its near
-    road moves beyond DIS's reach, and a kept key frame's flow is measured over two steps without a prediction there);
-    ``camera_height_m``: the road's distance below the camera; ``baseline_px``: the near road's parallax a
+    kept; ``camera_height_m``: the road's distance below the camera; ``baseline_px``: the near road's parallax a
     road flow should span at least (0: none, every step measures its road from its previous frame or a kept key frame;
     :meth:`slide` may be given more)."""
 
-    def __init__(self, K: np.ndarray, key_road_px: float, camera_height_m: float, baseline_px: float = 0.0,
-                 reach_px: float = np.inf) -> None:
+    def __init__(self, K: np.ndarray, key_road_px: float, camera_height_m: float, baseline_px: float = 0.0) -> None:
         self.K, self.key_road_px, self.camera_height_m = K, key_road_px, camera_height_m
-        self.reach_px = reach_px
         self.frame: Frame | None = None
         self.prediction: np.ndarray | None = None
         self._start_s, self._steps = 0.0, 0
@@ -91,22 +85,20 @@ class RoadKeyFrame(Generic[Frame]):
         self.frame, self.prediction = None, None
         return span
 
-    def end(self, span: RoadSpan[Frame], time_s: float, plane: RoadPlane | None, road_moved_px: tuple[float, float],
+    def end(self, span: RoadSpan[Frame], time_s: float, plane: RoadPlane | None, road_moved_px: float,
             motions: tuple[EssentialMotion, EssentialMotion], road_m: float | None,
             last_speed_mps: float | None) -> None:
         """After the step ending at ``time_s`` whose road over ``span`` gave ``plane`` (in the key frame's
-        camera frame; None: no trusted plane) and ``road_m`` metres since the key frame, its median and its near road
-        point (the 90th percentile) moving ``road_moved_px``; ``motions``: (the key frame's to the current frame, the
-        step's), up to scale. Where the road moved too little for a precise scale (its median point under
-        ``key_road_px``, its near road within ``reach_px``), the next step measures from the same key frame
+        camera frame; None: no trusted plane) and ``road_m`` metres since the key frame, its median road point
+        moving ``road_moved_px``; ``motions``: (the key frame's to the current frame, the step's), up to scale.
+        Where the road moved too little for a precise scale, the next step measures from the same key frame
         (predicted below ``MAX_KEY_PREDICTION_SPEED_MPS``); else, where this step's flow started at the previous
         frame and found the road, the next step's flow is predicted by this step's plane and motion."""
         if plane is None:
             return
         key_motion, step_motion = motions
         key_young = time_s - span.start_s < MAX_ROAD_KEY_S - TIME_TOLERANCE_S
-        median_px, near_px = road_moved_px
-        if median_px < self.key_road_px and near_px < self.reach_px and key_young:
+        if road_moved_px < self.key_road_px and key_young:
             self.frame, self._start_s, self._steps = span.frame, span.start_s, span.steps
             if last_speed_mps is not None and last_speed_mps < MAX_KEY_PREDICTION_SPEED_MPS:
                 # this step's share of the road by the count of steps, not by time: the warp DIS sees must not
