@@ -64,3 +64,14 @@ def test_the_drive_needs_the_fixed_baseline_until_its_flow_errs_more_than_it_all
     plane_with_error(0.8)
     assert noise.error_px == pytest.approx(0.8)
     assert noise.baseline_px(12.0) == pytest.approx(BASELINE_SNR * 0.8)
+
+
+def test_forget_starts_afresh():
+    """A mounting taken from the drive: the planes before it were fitted in the wrong frame."""
+    noise = RoadFlowNoise()
+    noise.observe(np.full(MIN_NOISE_POINTS, 0.1), np.full(MIN_NOISE_POINTS, 8.0))
+    assert noise.error_px is not None
+    noise.forget()
+    assert noise.error_px is None and noise.baseline_px(12.0) == 12.0
+    noise.observe(np.full(MIN_NOISE_POINTS, 0.1), np.full(MIN_NOISE_POINTS, 1.0))
+    assert noise.error_px == pytest.approx(0.1 * MAD_TO_SIGMA)

@@ -96,4 +96,5 @@ class RoadLength:
         self.rolls_taken_deg.append(round(self.roll_deg, 2))
         self.tally.restart()
         self.profile.forget()  # its cells were judged in the frame before
+        self.noise.forget()  # its planes' residuals too
         self.normal.forget()  # the road's normal carried from before leaned by the mounting just taken

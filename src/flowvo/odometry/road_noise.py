@@ -57,6 +57,11 @@ class RoadFlowNoise:
             self._errors_px.append(error_px)
             self.error_px = median(np.array(self._errors_px))
 
+    def forget(self) -> None:
+        """Start afresh (the planes so far were fitted through a camera mounting the drive has just replaced)."""
+        self._errors_px.clear()
+        self.error_px = None
+
     def baseline_px(self, fixed_px: float) -> float:
         """The near road's parallax a road flow should span (pixels): ``fixed_px``, or ``BASELINE_SNR`` times the
         flow's error where that is more."""
