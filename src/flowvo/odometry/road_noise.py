@@ -23,9 +23,9 @@ import numpy as np
 from flowvo.odometry.numeric import median
 
 BASELINE_SNR = 30.0  # the near road's parallax a road flow should span, in units of the flow's error (real dash-cam
-# at 1.3 m, speed (1-s means) / planes trusted / candidates' pitch spread / far road off the plane: 25 32.0-33.2 m/s /
-# 182 of 198 / 0.25 deg / 0.029, 30 32.0-33.2 / 188 / 0.21 / 0.028, 35 32.1-33.0 / 187 / 0.23 / 0.017; one step as
-# before 27.7-33.8 m/s / 82 / 7.7 deg / 0.21); real KITTI 01, 03, 06 need 4.1-8.1 px at 30, within the fixed 12
+# at 1.3 m, speed (1-s means) / planes trusted / candidates' pitch spread / far road off the plane: 32.0-33.1 m/s /
+# 187 of 199 / 0.26 deg / 0.026; over one step 27.7-33.8 m/s / 82 / 7.7 deg / 0.21; 25 and 35 alike, 182 and 187
+# planes); real KITTI 01, 03, 06 and 03 at 5 Hz need 9.9 px at most at 30, within the fixed 12
 NOISE_PLANES = 20  # the trusted planes whose flow errors the drive's is the median of
 MAX_RESIDUAL_SHARE = 0.5  # points further off the plane (share of its distance) are not the road's surface
 MIN_NOISE_POINTS = 20  # a plane with fewer road points near it says nothing of the flow's error
