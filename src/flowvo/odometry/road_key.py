@@ -6,7 +6,8 @@ found the road plane, the next step's road flow is predicted by that plane under
 velocity), and DIS measures only the residual (:class:`flowvo.odometry.road_flow.RoadFlow`). Where one step
 moves the near road less than ``BASELINE_PX`` beyond the rotation, the next step's road is measured from the
 frame as many steps back as that baseline takes (:meth:`RoadKeyFrame.slide`): a sliding key frame, its flow
-predicted through the steps since.
+predicted through the steps since. A drive whose road flow is noisy needs a longer baseline, and there a step whose
+unpredicted flow found no road has the next one predicted (:mod:`flowvo.odometry.road_noise`).
 
 Times in seconds; pixels of the working frame (thresholds given at :data:`REFERENCE_WIDTH_PX` and scaled);
 homographies on undistorted working pixels; lengths in metres.

@@ -61,7 +61,8 @@ class RoadLength:
         """The trusted road plane (its normal blended, :meth:`RoadNormal.smoothed`; ``measured``: the flow was
         within reach, so the blend is carried on) of the road correspondences ``road`` (key frame, current frame)
         under the key frame's motion ``key_fit``, and the metres travelled since the key frame; (None, None)
-        without a fit or a trusted plane."""
+        without a fit or a trusted plane. A trusted plane's points tell ``noise`` how far the road flow errs
+        (:class:`flowvo.odometry.road_noise.RoadFlowNoise`)."""
         self.near_parallax_px = 0.0
         if key_fit is None or not len(road[0]):
             return None, None
