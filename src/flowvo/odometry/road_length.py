@@ -72,11 +72,14 @@ class RoadLength:
             return None, None
         points = road_points(road[0], road[1], self.K, key_fit, levelling=self.levelling)
         plane = None if points is None else trusted_plane_among(points, tally=self.tally, profile=self.profile)
+        if plane is not None:  # the ground beside the road learns from the trusted plane's points
+            residuals = road_residuals(points, plane)
+            self.profile.observe(points, plane, residuals)
         levelling = self.levelling  # the frame the points and the plane are in (a mounting taken below changes it)
         self._level_by_the_drive()
         if plane is None:
             return None, None
-        self.noise.observe(road_residuals(points, plane), parallax_px)
+        self.noise.observe(residuals, parallax_px)  # and so does the flow's noise
         self.near_parallax_px = near_px
         plane = self.normal.smoothed(in_camera_frame(plane, levelling), key_fit.R, keep=measured,
                                      camera_height_m=self.camera_height_m)

@@ -99,11 +99,13 @@ class RoadProfile:
         kept = ~self.off_road[ground_cells(points, median(points[:, 1]))]
         return kept if kept.sum() >= MIN_ROAD_POINTS else np.ones(len(points), bool)
 
-    def observe(self, points: np.ndarray, plane: RoadPlane) -> None:
-        """Learn from a trusted ``plane`` (the fit's frame) and every candidate point (N, 3) it was fitted among."""
+    def observe(self, points: np.ndarray, plane: RoadPlane, residuals: np.ndarray | None = None) -> None:
+        """Learn from a trusted ``plane`` (the fit's frame) and every candidate point (N, 3) it was fitted among
+        (``residuals``: their :func:`road_residuals`, where the caller has them already)."""
         if plane.distance <= 0 or not len(points):
             return
-        medians = cell_medians(road_residuals(points, plane), ground_cells(points, plane.distance))
+        residuals = road_residuals(points, plane) if residuals is None else residuals
+        medians = cell_medians(residuals, ground_cells(points, plane.distance))
         cells = np.flatnonzero(~np.isnan(medians))
         self._medians[self._seen[cells] % PROFILE_STEPS, cells] = medians[cells]
         self._seen[cells] += 1

@@ -118,14 +118,12 @@ def road_points(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray,
 def trusted_road_plane(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, motion: EssentialMotion,
                        max_tilt_rad: float = MAX_ROAD_TILT_RAD, min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION,
                        min_parallax_px: float = 0.0, levelling: np.ndarray | None = None,
-                       tally: RoadPlaneTally | None = None, profile: RoadProfile | None = None) -> RoadPlane | None:
+                       tally: RoadPlaneTally | None = None) -> RoadPlane | None:
     """The road plane the camera stands on, from road correspondences (distance in units of the step, the
     camera's frame), or None: the plane fitted to the :func:`road_points` that passes
-    :func:`flowvo.odometry.road_plane.is_trusted_road`; each candidate is counted in ``tally`` when given. With a
-    ``profile``, the points it keeps are fitted, and it learns from every trusted plane
-    (:class:`flowvo.odometry.road_profile.RoadProfile`)."""
+    :func:`flowvo.odometry.road_plane.is_trusted_road`; each candidate is counted in ``tally`` when given."""
     points = road_points(points_prev, points_next, K, motion, min_parallax_px, levelling)
-    plane = None if points is None else trusted_plane_among(points, max_tilt_rad, min_inlier_fraction, tally, profile)
+    plane = None if points is None else trusted_plane_among(points, max_tilt_rad, min_inlier_fraction, tally)
     return None if plane is None else in_camera_frame(plane, levelling)
 
 
@@ -133,16 +131,15 @@ def trusted_plane_among(points: np.ndarray, max_tilt_rad: float = MAX_ROAD_TILT_
                         min_inlier_fraction: float = MIN_ROAD_INLIER_FRACTION, tally: RoadPlaneTally | None = None,
                         profile: RoadProfile | None = None) -> RoadPlane | None:
     """The plane fitted to triangulated road ``points`` (N, 3; units of the step) that passes
-    :func:`flowvo.odometry.road_plane.is_trusted_road`, in the points' frame, or None (``tally`` and ``profile`` as in
-    :func:`trusted_road_plane`)."""
+    :func:`flowvo.odometry.road_plane.is_trusted_road`, in the points' frame, or None (``tally`` as in
+    :func:`trusted_road_plane`; with a ``profile``, the points it keeps are fitted: the caller lets it learn from the
+    trusted plane, :class:`flowvo.odometry.road_profile.RoadProfile`)."""
     plane = fit_road_plane(points if profile is None else points[profile.keep(points)])
     if plane is None:
         return None
     trusted = is_trusted_road(plane, max_tilt_rad, min_inlier_fraction)
     if tally is not None:
         tally.add(plane, trusted, max_tilt_rad)
-    if trusted and profile is not None:
-        profile.observe(points, plane)
     return plane if trusted else None
 
 
