@@ -103,6 +103,38 @@ def test_the_flow_runs_where_the_tracks_run():
     assert judged[True] < min(judged[False] / 4, STILL_LAYER_SHARE)  # left: the pixel steps of a sloping line
 
 
+BONNET_FROM_PX = 85  # rows from here down may hold a bonnet until the view's end is found
+BONNET_EDGE_PX = 100
+
+
+def below_the_bonnets_edge(frame: np.ndarray) -> np.ndarray:
+    """``frame`` with a still, textured bonnet from :data:`BONNET_EDGE_PX` down, in front of the road."""
+    shown = frame.copy()
+    shown[BONNET_EDGE_PX:] = np.random.default_rng(1).integers(20, 200, (HW[0] - BONNET_EDGE_PX, HW[1]))
+    return shown
+
+
+@pytest.mark.parametrize("layer_over_the_near_road", [False, True])
+def test_the_rows_above_a_bonnet_are_judged_once_the_view_is_found_to_end_there(layer_over_the_near_road):
+    """Rows where a bonnet is looked for are judged only once the view is found to end (the real dash-cam's seam lies
+    there); a bonnet is still too, so the rows below its edge never are."""
+    seam = np.zeros(HW)
+    if layer_over_the_near_road:
+        seam[92:94] = 40.0
+    shares = {}
+    for view in (None, BONNET_EDGE_PX - 1, HW[0]):  # the view ends a row above the edge, as found
+        static = StaticLayer(HW, REGION, CENTRE, CELL_PX, bonnet_from_px=BONNET_FROM_PX)
+        if view is not None:
+            static.view_ends(view)
+        for frame in frames(FIRST_JUDGED_AT, seam):
+            static.observe(below_the_bonnets_edge(frame), True, NO_TRACKS, NO_TRACKS)
+        shares[view] = static.share
+    assert shares[None] < STILL_LAYER_SHARE / 3  # the seam lies below the rows judged before the bonnet is found
+    assert (shares[BONNET_EDGE_PX - 1] > 3 * STILL_LAYER_SHARE) == layer_over_the_near_road
+    assert shares[BONNET_EDGE_PX - 1] < STILL_LAYER_SHARE / 3 or layer_over_the_near_road  # the bonnet itself is not
+    assert shares[HW[0]] > 3 * STILL_LAYER_SHARE  # ...which it would be, judged down to the frame's bottom
+
+
 @pytest.mark.parametrize("standstill_frames", [0, 200])
 def test_a_standstills_frames_stay_out_of_the_long_exposure(standstill_frames):
     static = StaticLayer(HW, REGION, CENTRE, CELL_PX)

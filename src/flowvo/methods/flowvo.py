@@ -145,11 +145,8 @@ class FlowGeometryStep(WorkingFrames):
         self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
                                          STILL_SHARE / 2, band=True)
         self.view_bottom = ViewBottom(self.working_hw, self.still_tracks.first_row, self.still_tracks.cell_px)
-        crop_rows, crop_columns = self.road.crop
-        above_bonnet = slice(crop_rows.start, min(crop_rows.stop, int(self.still_tracks.first_row)))  # the layer is
-        # judged above the rows where a bonnet is looked for
-        self.static_layer = StaticLayer(self.working_hw, (above_bonnet, crop_columns), (self.K[0, 2], self.K[1, 2]),
-                                        self.still_tracks.cell_px)
+        self.static_layer = StaticLayer(self.working_hw, self.road.crop, (self.K[0, 2], self.K[1, 2]),
+                                        self.still_tracks.cell_px, self.still_tracks.first_row)
         self.frame_rows = image_size_hw[0]  # the frames' own height, for run.json's rows
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields
             raise FlowvoError(f"frames of {image_size_hw[1]}x{image_size_hw[0]} px are too small for the default "
@@ -217,6 +214,8 @@ class FlowGeometryStep(WorkingFrames):
         self.still_tracks.observe(tracked_prev, motion_px)
         self.view_bottom.observe(working)
         bottom = self.view_bottom.settle(self.still_tracks.band_top_px())
+        if self.view_bottom.found:
+            self.static_layer.view_ends(bottom)
         below = motion_px[tracked_prev[:, 1] >= self.static_layer.region[0].start]  # the road's, and what stands on it
         self.static_layer.observe(working, bool(len(below)) and median(below) >= self.layer_moving_px, tracked_prev,
                                   steps_px)

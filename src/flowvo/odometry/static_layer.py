@@ -33,15 +33,18 @@ ENERGY_EVERY = 4  # moving frames between two samples of the frames' own gradien
 
 class StaticLayer:
     """The still layer of working frames of ``image_hw`` (pixels), judged over ``region`` (rows, columns: the road
-    crop as placed at the start, above the bottom rows, where a bonnet is still but not over the road). The road's
-    flow direction is the tracks' own, summed in cells of ``cell_px`` (a camera pitched or rolled and not told so has
-    its flow run away from a point far from the principal point); cells no track started in take the direction away
-    from ``centre_px`` (x, y). Judged at :data:`FIRST_JUDGED_AT` moving frames and again whenever their count doubles,
-    so that a road key frame and the frame measured from it are rarely cleaned by different layers."""
+    crop as placed at the start) above row ``bonnet_from_px``, where a bonnet is looked for and would be still but not
+    over the road, until the frames' view is found to end (:mod:`flowvo.odometry.view_bottom`), then down to where
+    it ends: a layer over the near road above a bonnet counts (the real dash-cam's seam, 0.83 of the height down). The
+    road's flow direction is the tracks' own, summed in cells of ``cell_px`` (a camera pitched or rolled and not told
+    so has its flow run away from a point far from the principal point); cells no track started in take the direction
+    away from ``centre_px`` (x, y). Judged at :data:`FIRST_JUDGED_AT` moving frames and again whenever their count
+    doubles, so that a road key frame and the frame measured from it are rarely cleaned by different layers."""
 
     def __init__(self, image_hw: tuple[int, int], region: tuple[slice, slice], centre_px: tuple[float, float],
-                 cell_px: float) -> None:
+                 cell_px: float, bonnet_from_px: float | None = None) -> None:
         self.region = region
+        self._judged_rows = self._rows_above(bonnet_from_px)  # of the region, from its top
         rows, columns = np.mgrid[region[0], region[1]].astype(np.float32)
         dx, dy = columns - centre_px[0], rows - centre_px[1]
         length = np.maximum(np.hypot(dx, dy), 1e-3)
@@ -60,6 +63,15 @@ class StaticLayer:
         self.layer: np.ndarray | None = None  # what is taken out of the frames (float32), while the share is over
         # STILL_LAYER_SHARE
         self.removed_from: int | None = None  # the moving frame from which a layer was first taken out
+
+    def _rows_above(self, row_px: float | None) -> int:
+        """How many of the region's rows lie above frame row ``row_px`` (None: all)."""
+        rows = self.region[0].stop - self.region[0].start
+        return rows if row_px is None else int(np.clip(int(row_px) - self.region[0].start, 0, rows))
+
+    def view_ends(self, bottom_px: int) -> None:
+        """The frames' view ends above row ``bottom_px`` (a bonnet's edge found): the layer is judged down to it."""
+        self._judged_rows = self._rows_above(bottom_px)
 
     def _gradients(self, image: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The gradient (x, y) over the region of ``image`` (the whole frame; float32)."""
@@ -105,12 +117,13 @@ class StaticLayer:
         return np.where(tracked[self._cell_of][None], along, self._away)
 
     def _judge(self) -> None:
-        ux, uy = self._along()
+        judged = slice(0, self._judged_rows)
+        ux, uy = self._along()[:, judged]
         half = self.frames / 2
-        earlier = self._gradients(self._half_sum / half)
-        later = self._gradients((self._sum - self._half_sum) / half)
+        earlier = [gradient[judged] for gradient in self._gradients(self._half_sum / half)]
+        later = [gradient[judged] for gradient in self._gradients((self._sum - self._half_sum) / half)]
         common = (earlier[0] * ux + earlier[1] * uy) * (later[0] * ux + later[1] * uy)
-        gxx, gxy, gyy = self._moments / self._moment_frames
+        gxx, gxy, gyy = self._moments[:, judged] / self._moment_frames
         own = float((ux * ux * gxx + 2 * ux * uy * gxy + uy * uy * gyy).sum())
         self.share = float(common.sum(dtype=np.float64) / own) if own > 0 else 0.0
         mean = (self._sum / self.frames).astype(np.float32)
