@@ -25,7 +25,7 @@ from flowvo.odometry.numeric import row_norms
 STILL_LAYER_SHARE = 0.045  # of the road's texture along the flow: over it, the layer is taken out, and it stays taken
 # out while over half of it. Frames without a layer read -0.043 to 0.039 from 40 moving frames on (real KITTI 01 / 03 /
 # 06 / 07 / 03 at 5 Hz, the synthetic replays of 08-10, the synthetic cameras of docs/synthetic_cameras.md, told their
-# mounting or not, at 620 px and full size, seeds 3-6); the real dash-cam 0.22-0.29, a synthetic reflection added to
+# mounting or not, at 620 px and full size, seeds 3-6); the real dash-cam 0.22-0.25, a synthetic reflection added to
 # real clip 01 0.05-0.07, to synthetic drives 0.07-0.13
 FIRST_JUDGED_AT = 40  # moving frames: halves of 20
 ENERGY_EVERY = 4  # moving frames between two samples of the frames' own gradient energy
