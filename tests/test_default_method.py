@@ -199,7 +199,9 @@ def test_without_a_trusted_road_the_network_measures_after_a_second():
                                              "candidates_median_pitch_deg": None, "candidates_median_roll_deg": None,
                                              "candidates_pitch_spread_deg": None, "ground_cells_off_road": 0,
                                              "far_road_off_plane_share": None,
-                                             "pitches_taken_deg": [], "rolls_taken_deg": []}
+                                             "pitches_taken_deg": [], "rolls_taken_deg": [],
+                                             "road_flow_error_px": 0.0, "road_flow_error_px_largest": 0.0,
+                                             "road_baseline_px_largest": 12.0}  # an exact flow: the fixed baseline
     assert lengths[0] == pytest.approx(1.0, rel=1e-4) and lengths[-1] > 1.0  # the prior, then the network's 2 m pull
 
 

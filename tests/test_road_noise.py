@@ -75,3 +75,16 @@ def test_forget_starts_afresh():
     assert noise.error_px is None and noise.baseline_px(12.0) == 12.0
     noise.observe(np.full(MIN_NOISE_POINTS, 0.1), np.full(MIN_NOISE_POINTS, 1.0))
     assert noise.error_px == pytest.approx(0.1 * MAD_TO_SIGMA)
+
+
+def test_run_json_gives_the_error_now_and_at_its_largest_in_the_frames_own_pixels():
+    """Working frames at half the frames' size: 2 frame pixels to a working one."""
+    noise = RoadFlowNoise()
+    assert noise.record(12.0, 2.0) == {"road_flow_error_px": None, "road_flow_error_px_largest": None,
+                                       "road_baseline_px_largest": 24.0}
+    for error_px in [0.2] * NOISE_PLANES + [0.8] * NOISE_PLANES + [0.3] * NOISE_PLANES:
+        noise.observe(np.full(MIN_NOISE_POINTS, 0.1), np.full(MIN_NOISE_POINTS, error_px / 0.1 / MAD_TO_SIGMA))
+    assert noise.record(12.0, 2.0) == pytest.approx({"road_flow_error_px": 0.6, "road_flow_error_px_largest": 1.6,
+                                                     "road_baseline_px_largest": 2.0 * BASELINE_SNR * 0.8})
+    noise.forget()
+    assert noise.record(12.0, 2.0)["road_flow_error_px_largest"] is None

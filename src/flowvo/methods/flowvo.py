@@ -461,7 +461,8 @@ class FlowGeometryStep(WorkingFrames):
 
     def summary(self) -> dict:
         """How many steps took the network's distance (no trustworthy road plane for a while), how the road
-        planes fared (:class:`RoadPlaneTally`), how many steps at speed took the last direction of travel
+        planes fared (:class:`RoadPlaneTally`) and how far their road flow erred
+        (:class:`flowvo.odometry.road_noise.RoadFlowNoise`), how many steps at speed took the last direction of travel
         instead of the fit's (:mod:`flowvo.odometry.travel_direction`), how many took the last yaw rate instead of the
         fit's (:mod:`flowvo.odometry.yaw_rate`), how many steps' rotations were measured from an earlier key frame
         (:mod:`flowvo.odometry.rotation_key`), how many cells of the road grid and of the tracked points stood still
@@ -473,7 +474,8 @@ class FlowGeometryStep(WorkingFrames):
         kept = {"network_distance_steps": self.fallback_policy.network_steps} if self.fallback else {}
         kept["road_planes"] = self.road_length.tally.record() | self.road_length.profile.record() | \
             {"pitches_taken_deg": self.road_length.pitches_taken_deg,
-             "rolls_taken_deg": self.road_length.rolls_taken_deg}
+             "rolls_taken_deg": self.road_length.rolls_taken_deg} | \
+            self.road_length.noise.record(self.road_key.baseline_px, self.frame_rows / self.working_hw[0])
         kept.update(self.checks.summary())
         kept["still_regions"] = {"road_cells": self.road.still.still_cells,
                                  "track_cells": self.still_tracks.still_cells,

@@ -49,6 +49,7 @@ class RoadFlowNoise:
     def __init__(self) -> None:
         self._errors_px: deque[float] = deque(maxlen=NOISE_PLANES)
         self.error_px: float | None = None  # their median (pixels; None before the first trusted plane)
+        self.largest_error_px: float | None = None  # the largest that median has been since the drive's mounting
 
     def observe(self, residuals: np.ndarray, parallax_px: np.ndarray) -> None:
         """Learn from a trusted plane's road points: their residuals and parallax (see :func:`flow_error_px`)."""
@@ -56,13 +57,29 @@ class RoadFlowNoise:
         if error_px is not None:
             self._errors_px.append(error_px)
             self.error_px = median(np.array(self._errors_px))
+            self.largest_error_px = max(self.error_px, self.largest_error_px or 0.0)
 
     def forget(self) -> None:
         """Start afresh (the planes so far were fitted through a camera mounting the drive has just replaced)."""
         self._errors_px.clear()
-        self.error_px = None
+        self.error_px = self.largest_error_px = None
 
     def baseline_px(self, fixed_px: float) -> float:
         """The near road's parallax a road flow should span (pixels): ``fixed_px``, or ``BASELINE_SNR`` times the
         flow's error where that is more."""
-        return fixed_px if self.error_px is None else max(fixed_px, BASELINE_SNR * self.error_px)
+        return _spanned_px(fixed_px, self.error_px)
+
+    def record(self, fixed_px: float, frame_px_per_px: float) -> dict:
+        """For run.json, in the frames' own pixels (``frame_px_per_px`` of them to a working pixel; ``fixed_px``: the
+        fixed baseline, working pixels): the road flow's error at the end and at its largest (None: no trusted plane
+        since the drive's mounting), and the near road's parallax a road flow spanned for the largest."""
+        def frame_px(value_px: float | None) -> float | None:
+            return None if value_px is None else round(value_px * frame_px_per_px, 3)
+        return {"road_flow_error_px": frame_px(self.error_px),
+                "road_flow_error_px_largest": frame_px(self.largest_error_px),
+                "road_baseline_px_largest": frame_px(_spanned_px(fixed_px, self.largest_error_px))}
+
+
+def _spanned_px(fixed_px: float, error_px: float | None) -> float:
+    """The near road's parallax a road flow should span (pixels) where it errs ``error_px`` (None: not known yet)."""
+    return fixed_px if error_px is None else max(fixed_px, BASELINE_SNR * error_px)
