@@ -5,7 +5,7 @@ import pytest
 from swaying_drive import swaying_drive
 
 from flowvo.cli import build_parser, main
-from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning
+from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning, _view_notes
 from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp
 from flowvo.metrics.error_split import turn_rotation, with_direction_turned
 
@@ -155,3 +155,14 @@ def test_a_road_that_bends_away_from_its_plane_is_warned_of_and_kitti_s_is_not()
         "warning: the road 10-20 camera heights ahead lies 28 % of the height below the plane")
     assert _bowl_warning({"far_road_off_plane_share": -0.0353}) is None  # real KITTI 03
     assert _bowl_warning({"far_road_off_plane_share": None}) is None and _bowl_warning({}) is None
+
+
+def test_a_bonnet_and_a_still_layer_kept_out_of_the_road_are_told_and_a_clean_view_says_nothing():
+    clean = {"still_regions": {"road_cells": 0, "track_cells": 0, "view_ends_at_row": None},
+             "static_layer": {"share": 0.0031, "removed_from_moving_frame": None}}
+    assert _view_notes(clean) == [] and _view_notes({}) == []  # real KITTI; flowvo-pair's summary as well
+    dash_cam = {"still_regions": {"road_cells": 3, "track_cells": 10, "view_ends_at_row": 668},
+                "static_layer": {"share": 0.2516, "removed_from_moving_frame": 40}}
+    bonnet, layer = _view_notes(dash_cam)
+    assert bonnet.startswith("note: the frames' view ends at row 668 (a bonnet")
+    assert "0.25 of the road's texture" in layer and "from moving frame 40 on" in layer

@@ -36,6 +36,8 @@ def command(args: argparse.Namespace) -> int:
         print(note)
     if warning := _bowl_warning(planes):
         print(warning)
+    for note in _view_notes(summary):
+        print(note)
     print(f"poses: {args.out}/{summary['poses']}  timing: {args.out}/timing.json  "
           f"({summary['frames']} frames, {summary['frames_per_second']:.0f} frames/s)")
     print(drive_line(summary["drive"]))
@@ -105,6 +107,21 @@ def _bowl_warning(planes: dict) -> str | None:
             f"of the height {side} the plane through the nearer road (real KITTI: within 4 %): "
             "the road is not a plane to the method, and its lengths are not to be trusted (a road flow too noisy for "
             "its baseline? a wrong camera pitch, lens model or rolling shutter? docs/dashcam.md)")
+
+
+def _view_notes(summary: dict) -> list[str]:
+    """Notes on what the run kept out of the road's view (``run.json``'s ``still_regions`` and ``static_layer``): where
+    the frames' view ends above a bonnet, and a still layer over the road taken out of its frames."""
+    notes = []
+    if (row := summary.get("still_regions", {}).get("view_ends_at_row")) is not None:
+        notes.append(f"note: the frames' view ends at row {row} (a bonnet or dashboard that stands still across the "
+                     "bottom rows: kept out of the road and the tracks)")
+    layer = summary.get("static_layer", {})
+    if layer.get("removed_from_moving_frame") is not None:
+        notes.append(f"note: a still layer over the road (a reflection or dirt on the windshield: {layer['share']:.2f} "
+                     "of the road's texture) was taken out of the road's frames from moving frame "
+                     f"{layer['removed_from_moving_frame']} on (docs/dashcam.md#a-reflection-over-the-road)")
+    return notes
 
 
 def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) -> str | None:
