@@ -72,7 +72,7 @@ class RoadFlowNoise:
     def record(self, fixed_px: float, frame_px_per_px: float) -> dict:
         """For run.json, in the frames' own pixels (``frame_px_per_px`` of them to a working pixel; ``fixed_px``: the
         fixed baseline, working pixels): the road flow's error at the end and at its largest (None: no trusted plane
-        since the drive's mounting), and the near road's parallax a road flow spanned for the largest."""
+        since the drive's mounting), and the near road's parallax a road flow should span at the largest."""
         def frame_px(value_px: float | None) -> float | None:
             return None if value_px is None else round(value_px * frame_px_per_px, 3)
         return {"road_flow_error_px": frame_px(self.error_px),
