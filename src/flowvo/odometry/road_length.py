@@ -11,12 +11,11 @@ from __future__ import annotations
 import numpy as np
 
 from flowvo.camera import mounting_of_road_normal, mounting_rotation
-from flowvo.odometry.numeric import percentile
 from flowvo.odometry.road_noise import RoadFlowNoise
 from flowvo.odometry.road_normal import RoadNormal
 from flowvo.odometry.road_plane import RoadPlane, in_camera_frame
 from flowvo.odometry.road_profile import RoadProfile, road_residuals
-from flowvo.odometry.road_scale import NEAR_ROAD_PERCENTILE, road_points, trusted_plane_among
+from flowvo.odometry.road_scale import near_of, road_points, trusted_plane_among
 from flowvo.odometry.road_tally import RoadPlaneTally
 from flowvo.odometry.two_view import EssentialMotion, translation_parallax_px
 
@@ -67,7 +66,7 @@ class RoadLength:
         if key_fit is None or not len(road[0]):
             return None, None
         parallax_px = translation_parallax_px(road[0], road[1], self.K, key_fit.R)
-        near_px = percentile(parallax_px, NEAR_ROAD_PERCENTILE)
+        near_px = near_of(parallax_px)
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
         points = road_points(road[0], road[1], self.K, key_fit, levelling=self.levelling)

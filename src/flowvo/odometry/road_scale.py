@@ -197,11 +197,16 @@ def metric_road_homography(K: np.ndarray, T_next_key: np.ndarray, normal: np.nda
 
 
 def near_road_parallax_px(points_prev: np.ndarray, points_next: np.ndarray, K: np.ndarray, R: np.ndarray) -> float:
-    """How far the near road moved beyond the rotation ``R`` (``R_next_prev``), pixels: the ``NEAR_ROAD_PERCENTILE``
-    of the road correspondences' (N, 2) translation parallax (0 without any)."""
+    """How far the near road moved beyond the rotation ``R`` (``R_next_prev``), pixels: :func:`near_of` the road
+    correspondences' (N, 2) translation parallax."""
     if not len(points_prev):
         return 0.0
-    return percentile(translation_parallax_px(points_prev, points_next, K, R), NEAR_ROAD_PERCENTILE)
+    return near_of(translation_parallax_px(points_prev, points_next, K, R))
+
+
+def near_of(parallax_px: np.ndarray) -> float:
+    """The near road's parallax (pixels): the ``NEAR_ROAD_PERCENTILE`` of road points' parallax (N,; 0 without any)."""
+    return percentile(parallax_px, NEAR_ROAD_PERCENTILE) if len(parallax_px) else 0.0
 
 
 NETWORK_AFTER_S = 1.0  # the speed prior bridges shorter gaps in the road measurements on its own
