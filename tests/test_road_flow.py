@@ -118,7 +118,8 @@ def test_road_points_that_leave_the_frame_are_dropped():
 @pytest.mark.parametrize("pitch_deg", [-5.0, 0.0, 8.0])
 def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(pitch_deg):
     """A camera pitched 5 degrees up has its horizon fy tan(5 deg) below the principal point: the grid's and the
-    crop's top rows move down by that; level and pitched-down cameras keep theirs (their horizon is higher)."""
+    crop's top rows move down by that; level and pitched-down cameras keep theirs (their horizon is higher). A still
+    layer over the road is judged from the level camera's top all the same (a reflection's dots lie there)."""
     K = np.array([[359.0, 0.0, 310.0], [0.0, 359.0, 94.0], [0.0, 0.0, 1.0]])
     intrinsics = CameraIntrinsics(359.0, 359.0, 310.0, 94.0)
     level = RoadFlow(Camera(intrinsics), (188, 620), "dis-road")
@@ -128,6 +129,7 @@ def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(p
     assert road.grid_px[:, 1].min() == int(94.0 + below + 0.10 * 188)
     assert road.crop[0].start == int(94.0 + below + 0.05 * 188)
     assert road.grid_px[:, 1].max() == level.grid_px[:, 1].max() and road.crop[0].stop == level.crop[0].stop
+    assert road.from_level_top() == (slice(int(94.0 + 0.05 * 188), road.crop[0].stop), road.crop[1])
     # its still points are judged in the grid's near half (a camera pitched up has a shorter grid)
     assert road.still.first_row == pytest.approx(94.0 + (below + 0.55 * 188) / 2, abs=1e-9)
     placed = RoadFlow(Camera(intrinsics), (188, 620), "dis-road")  # a level camera whose pitch the drive says

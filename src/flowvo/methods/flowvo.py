@@ -145,7 +145,7 @@ class FlowGeometryStep(WorkingFrames):
         self.still_tracks = StillRegions(self.working_hw, self.K[1, 2] + STILL_TRACKS_FROM * self.working_hw[0], scale,
                                          STILL_SHARE / 2, band=True)
         self.view_bottom = ViewBottom(self.working_hw, self.still_tracks.first_row, self.still_tracks.cell_px)
-        self.static_layer = StaticLayer(self.working_hw, self.road.crop, (self.K[0, 2], self.K[1, 2]),
+        self.static_layer = StaticLayer(self.working_hw, self.road.from_level_top(), (self.K[0, 2], self.K[1, 2]),
                                         self.still_tracks.cell_px, self.still_tracks.first_row)
         self.frame_rows = image_size_hw[0]  # the frames' own height, for run.json's rows
         if min(self.road.crop_hw) < MIN_FLOW_SIDE_PX:  # OpenCV's DIS crashes the process on smaller fields

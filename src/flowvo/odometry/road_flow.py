@@ -93,6 +93,13 @@ class RoadFlow:
                                               ideal_px)
         return self._views[bottom_px]
 
+    def from_level_top(self) -> tuple[slice, slice]:
+        """The crop (rows, columns) with its top no lower than a camera mounted level has it: one told it looks up has
+        its crop start below its horizon, and a still layer over the road (:mod:`flowvo.odometry.static_layer`) is
+        judged over the rows between too (the real dash-cam told -1.8 degrees: its reflection's dots lie there)."""
+        level_top = road_crop(self.working_hw, self.K)[0].start
+        return slice(min(level_top, self.crop[0].start), self.crop[0].stop), self.crop[1]
+
     def undistort(self, points_px: np.ndarray) -> np.ndarray:
         """Working-frame pixels (N, 2) to ideal pinhole pixels."""
         return undistort_points(points_px, self.K, self.camera.distortion)

@@ -33,13 +33,14 @@ ENERGY_EVERY = 4  # moving frames between two samples of the frames' own gradien
 
 class StaticLayer:
     """The still layer of working frames of ``image_hw`` (pixels), judged over ``region`` (rows, columns: the road
-    crop as placed at the start) above row ``bonnet_from_px``, where a bonnet is looked for and would be still but not
-    over the road, until the frames' view is found to end (:mod:`flowvo.odometry.view_bottom`), then down to where
-    it ends: a layer over the near road above a bonnet counts (the real dash-cam's seam, 0.83 of the height down). The
-    road's flow direction is the tracks' own, summed in cells of ``cell_px`` (a camera pitched or rolled and not told
-    so has its flow run away from a point far from the principal point); cells no track started in take the direction
-    away from ``centre_px`` (x, y). Judged at :data:`FIRST_JUDGED_AT` moving frames and again whenever their count
-    doubles, so that a road key frame and the frame measured from it are rarely cleaned by different layers."""
+    crop as placed at the start, from no lower than a level camera's top) above row ``bonnet_from_px``, where a bonnet
+    is looked for and would be still but not over the road, until the frames' view is found to end
+    (:mod:`flowvo.odometry.view_bottom`), then down to where it ends: a layer over the near road above a bonnet counts
+    (the real dash-cam's seam, 0.83 of the height down). The road's flow direction is the tracks' own, summed in cells
+    of ``cell_px`` (a camera pitched or rolled and not told so has its flow run away from a point far from the
+    principal point); cells no track started in take the direction away from ``centre_px`` (x, y). Judged at
+    :data:`FIRST_JUDGED_AT` moving frames and again whenever their count doubles, so that a road key frame and the
+    frame measured from it are rarely cleaned by different layers."""
 
     def __init__(self, image_hw: tuple[int, int], region: tuple[slice, slice], centre_px: tuple[float, float],
                  cell_px: float, bonnet_from_px: float | None = None) -> None:
