@@ -200,6 +200,21 @@ def test_the_roll_comes_from_the_flag_else_the_calibration_else_level_and_turns_
     np.testing.assert_allclose(drive.road_levelling @ road_normal_in_camera, [0.0, 1.0, 0.0], atol=1e-12)
 
 
+def test_the_readout_time_comes_from_the_flag_else_the_calibration_else_a_global_shutter(tmp_path):
+    drive = Camera(INTRINSICS, BARREL, None, "kitti", readout_ms=25.0)
+    assert drive_camera(given_camera(None, None, None, None, None), drive, (480, 640), "d").readout_ms == 25.0
+    told = drive_camera(given_camera(None, None, None, None, None, readout_ms=0.0), drive, (480, 640), "d")
+    assert told.readout_ms == 0.0 and told.record()["readout_ms"] == 0.0
+    assert drive_camera(given_camera(None, 400.0, 400.0, 300.0, 200.0), None, (480, 640), "d").readout_ms == 0.0
+    calib = tmp_path / "calib.txt"
+    calib.write_text("P0: 400 0 320 0 0 400 240 0 0 0 1 0\nreadout_ms: 33.3\n")
+    from_file = drive_camera(given_camera(str(calib), None, None, None, None), None, (480, 640), "d")
+    assert from_file.readout_ms == 33.3
+    calib.write_text("P0: 400 0 320 0 0 400 240 0 0 0 1 0\nreadout_ms: -2\n")
+    with pytest.raises(FlowvoError, match=r"calib.txt:2: readout time must be a finite number of milliseconds"):
+        given_camera(str(calib), None, None, None, None)
+
+
 @pytest.mark.parametrize(("kwargs", "message"), [
     ({"fx": 500.0}, "missing --fy --cx --cy"),
     ({"distortion_model": "equidistant"}, "--distortion-model needs --dist"),
@@ -207,6 +222,7 @@ def test_the_roll_comes_from_the_flag_else_the_calibration_else_level_and_turns_
     ({"camera_height_m": -1.0}, "camera height"),
     ({"camera_pitch_deg": 31.0}, "camera pitch"),
     ({"camera_roll_deg": -15.5}, "--camera-roll: camera roll must be"),
+    ({"readout_ms": float("nan")}, "--readout-ms: readout time must be"),
 ])
 def test_bad_camera_flags(kwargs, message):
     arguments = {"calib": None, "fx": None, "fy": None, "cx": None, "cy": None} | kwargs

@@ -16,6 +16,7 @@ from flowvo.kitti.sequence import KittiSequence
 from flowvo.synth.bonnet import bonnet_mask
 from flowvo.synth.camera_path import generate_path
 from flowvo.synth.dataset import plan_sequence, sequence_seed, synthesize
+from flowvo.synth.frame_rate import poses_at
 from flowvo.synth.render import pixel_rays, render
 from flowvo.synth.sequence_writer import intrinsics, kitti_calibration, spec_digest
 from flowvo.synth.synth_camera import SynthCamera
@@ -212,6 +213,43 @@ def test_a_rolled_camera_is_the_level_drive_turned_about_its_optical_axis_and_re
     assert stopped.value.code == 2 and "--camera-roll: 16 is outside" in capsys.readouterr().err
 
 
+def test_a_rolling_shutter_renders_each_band_of_rows_from_the_pose_its_rows_are_exposed_at(tmp_path, capsys):
+    """The bands' rays are the whole image's, row for row (through a lens too); bands seen from one pose are the
+    global shutter's frame; a band's pose is the drive's at its middle row's time, which calib.txt's readout line
+    tells flowvo run."""
+    from flowvo.synth.render import render_rolling_shutter, row_bands
+
+    K, size = intrinsics(0.2)
+    for lens in (LensDistortion(), BARREL):
+        whole, bands = pixel_rays(K, size, lens), row_bands(K, size, lens)
+        assert [band.rows.start for band in bands][:2] == [0, 4] and bands[-1].rows.stop == size[0]
+        for axis in ("xn", "yn"):  # the lens undone in float32, a band's pixels at other coordinates: 3e-8 apart
+            np.testing.assert_allclose(np.concatenate([getattr(band.rays, axis) for band in bands]),
+                                       getattr(whole, axis), rtol=0, atol=1e-7)
+    rolling = SynthCamera(readout_ms=30.0)
+    spec = plan_sequence("00", 2, 4, None, 0.2, None, False, camera=rolling)
+    world, textures, pose = build_world(spec.T_world_cam, 2), make_textures(2), spec.frame_poses()[1]
+    bands = row_bands(K, size)
+    image, depth = render_rolling_shutter(world, textures, np.repeat(pose[None], len(bands), axis=0), bands)
+    expected_image, expected_depth = render(world, textures, pose, pixel_rays(K, size))
+    np.testing.assert_array_equal(image, expected_image)
+    np.testing.assert_array_equal(depth, expected_depth)
+    shares = np.array([0.0, 0.5, 1.0])
+    band_poses = spec.band_poses(shares)
+    np.testing.assert_allclose(band_poses[:, 0], spec.frame_poses(), atol=1e-9)  # the first row: the frame's time
+    np.testing.assert_allclose(band_poses[1, 2], poses_at(spec.T_world_cam, 10.0, np.array([0.13]))[0], atol=1e-12)
+    # the last row of frame 1 (at 0.1 s) is exposed 30 ms later
+    level = plan_sequence("00", 2, 4, None, 0.2, None, False)
+    assert repr(level.camera) == repr(spec.camera) and spec_digest(level) != spec_digest(spec)
+    assert rolling.record()["readout_ms"] == 30.0 and "readout_ms" not in SynthCamera().record()
+    assert kitti_calibration(np.eye(3), rolling).readout_ms == 30.0
+    with pytest.raises(FlowvoError, match="--readout-ms 50: a rolling shutter reads a frame out within the frame "
+                                          "interval, 40 ms at --fps 25"):
+        SynthCamera(fps=25.0, readout_ms=50.0)
+    with pytest.raises(FlowvoError, match="--gt-flow: the true flow is written for a global shutter"):
+        plan_sequence("00", 2, 4, None, 0.2, None, True, camera=rolling)
+
+
 def _within_kitti_camera(t_err: float, kitti_t_err: float) -> bool:
     """The issue's bar, within 1.3x of KITTI's camera's t_err on the same drive, or within ``KITTI_SPREAD_POINTS`` of it
     where that is looser: one 20 s drive is one draw from a chaotic pipeline."""
@@ -303,3 +341,20 @@ def test_default_method_on_a_dash_cam_ends_its_view_at_the_bonnet_and_is_within_
     kitti_t_err = kitti_camera_metrics["t_err_percent"]
     assert _within_kitti_camera(t_err, kitti_t_err), f"t_err {t_err:.2f} % against {kitti_t_err:.2f} % (KITTI's)"
 
+
+
+@pytest.mark.slow
+def test_default_method_on_a_rolling_shutter_told_its_readout_is_within_1_3x_of_kitti_camera(kitti_camera_metrics,
+                                                                                           tmp_path):
+    """KITTI's camera read out over 30 ms of its 100 ms frames (told by its calib.txt): each road point's baseline is
+    its own, and the drive reads as KITTI's global shutter does; taken for a global shutter (``readout_ms`` 0) the
+    near road, seen later than the frames' interval says, reads nearer and the path long (over four worlds at 620 px:
+    told 0.47 %, not told 2.98 %, paths +2.3 to +3.8 %; docs/synthetic_cameras.md)."""
+    t_err = _metrics(tmp_path, SynthCamera(readout_ms=30.0))["t_err_percent"]
+    kitti_t_err = kitti_camera_metrics["t_err_percent"]
+    assert _within_kitti_camera(t_err, kitti_t_err), f"t_err {t_err:.2f} % against {kitti_t_err:.2f} % (KITTI's)"
+    told = json.loads((tmp_path / "run" / "run.json").read_text())
+    global_shutter = run(RunOptions(out=str(tmp_path / "global"), data=str(tmp_path / "data"), sequence="00",
+                                    readout_ms=0.0))
+    assert (told["camera"]["readout_ms"], global_shutter["camera"]["readout_ms"]) == (30.0, 0.0)
+    assert global_shutter["drive"]["distance_m"] > 1.015 * told["drive"]["distance_m"]

@@ -27,6 +27,7 @@ MAX_FOCAL_PX = 1e5  # a 1e5 px focal length is a 0.6 deg field of view on a 1000
 MAX_CAMERA_HEIGHT_M = 10.0  # a camera on a truck cab is ~3 m; beyond 10 m no road scale makes sense
 MAX_CAMERA_PITCH_DEG = 30.0  # a camera looking further down sees little but the bonnet and the road at its feet
 MAX_CAMERA_ROLL_DEG = 15.0  # a camera rolled further shows the horizon across a third of a KITTI-shaped frame's height
+MAX_READOUT_MS = 1000.0  # a rolling shutter reads its rows out within a frame's interval: 1 s at 1 frame/s
 LENS_ROUND_TRIP_PX = 0.5  # a frame pixel undistorted and distorted again must land this close to itself
 MAX_LENS_STRETCH = 3.0  # the most a lens model may magnify the image radially, relative to its centre (1)
 
@@ -167,7 +168,8 @@ class Camera:
     level, as KITTI's), and ``roll_deg``, how far it is then rolled about its optical axis (degrees, right side down
     positive; :func:`mounting_rotation`). ``scaled_from_hw``: (height, width) of the images a calibration file was
     made at, when the frames are another size of the same aspect ratio and the intrinsics were scaled to them; else
-    None."""
+    None. ``readout_ms``: a rolling shutter's time between exposing the frame's first (top) and last row
+    (milliseconds; 0: a global shutter, as KITTI's)."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion = field(default=NO_DISTORTION)
@@ -176,6 +178,7 @@ class Camera:
     pitch_deg: float = 0.0
     scaled_from_hw: tuple[int, int] | None = None  # the calibration's image size when the frames' differs
     roll_deg: float = 0.0
+    readout_ms: float = 0.0
 
     @property
     def K(self) -> np.ndarray:
@@ -198,9 +201,10 @@ class Camera:
         return mounting_rotation(self.pitch_deg, self.roll_deg)
 
     def scaled(self, scale_x: float, scale_y: float) -> Camera:
-        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, mounting unchanged)."""
+        """The camera of the frames resized by ``scale_x``, ``scale_y`` (distortion, height, mounting and readout
+        unchanged)."""
         return Camera(self.intrinsics.scaled(scale_x, scale_y), self.distortion, self.height_m, self.source,
-                      self.pitch_deg, self.scaled_from_hw, self.roll_deg)
+                      self.pitch_deg, self.scaled_from_hw, self.roll_deg, self.readout_ms)
 
     def record(self) -> dict:
         """The camera as ``run.json`` records it."""
@@ -208,7 +212,7 @@ class Camera:
         return {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion_model": self.distortion.model,
                 "distortion": list(self.distortion.coefficients), "camera_height_m": self.camera_height_m,
                 "camera_height_given": self.height_m is not None, "camera_pitch_deg": self.pitch_deg,
-                "camera_roll_deg": self.roll_deg, "source": self.source,
+                "camera_roll_deg": self.roll_deg, "readout_ms": self.readout_ms, "source": self.source,
                 **({} if self.scaled_from_hw is None else
                    {"scaled_from_image_size": [self.scaled_from_hw[1], self.scaled_from_hw[0]]})}
 
@@ -265,6 +269,15 @@ def check_camera_roll(roll_deg: float, where: str | None = None) -> float:
         raise FlowvoError(f"camera roll must be a finite number of degrees in [-{MAX_CAMERA_ROLL_DEG:g}, "
                           f"{MAX_CAMERA_ROLL_DEG:g}] (right side down positive), got {roll_deg}", where)
     return float(roll_deg)
+
+
+def check_readout(readout_ms: float, where: str | None = None) -> float:
+    """``readout_ms`` when it is a plausible rolling-shutter readout time (milliseconds, 0 for a global shutter); a
+    one-line error otherwise."""
+    if not (isinstance(readout_ms, int | float) and math.isfinite(readout_ms) and 0 <= readout_ms <= MAX_READOUT_MS):
+        raise FlowvoError(f"readout time must be a finite number of milliseconds in [0, {MAX_READOUT_MS:g}] (0: a "
+                          f"global shutter), got {readout_ms}", where)
+    return float(readout_ms)
 
 
 def check_intrinsics(intrinsics: CameraIntrinsics, image_size_hw: tuple[int, int] | None, where: str | None) -> None:

@@ -1,13 +1,14 @@
 """The camera of a drive, from what the user gave (a calibration file, ``--fx ...``, ``--dist``,
-``--camera-height``, ``--camera-pitch``, ``--camera-roll``) and what the drive itself says (KITTI calib.txt, a ROS
-CameraInfo and /tf_static).
+``--camera-height``, ``--camera-pitch``, ``--camera-roll``, ``--readout-ms``) and what the drive itself says (KITTI
+calib.txt, a ROS CameraInfo and /tf_static).
 
 Precedence: intrinsics from ``--calib`` or ``--fx --fy --cx --cy`` replace the drive's (a KITTI calib.txt
 too); distortion from
 ``--dist`` replaces the calibration file's, which replaces the drive's; the camera height from
 ``--camera-height``, else the calibration file's, else the drive's, else KITTI's 1.65 m (assumed, said so);
 the pitch and the roll likewise from ``--camera-pitch`` and ``--camera-roll``, the calibration file's, the drive's,
-else 0 (mounted level).
+else 0 (mounted level); a rolling shutter's readout time from ``--readout-ms``, the calibration file's, the drive's,
+else 0 (a global shutter).
 
 A calibration file that states its image size (OpenCV and ROS YAML ``image_width``/``image_height``, Kalibr
 ``resolution``) is checked against the frames: another size of the same aspect ratio (within a pixel) has
@@ -28,6 +29,7 @@ from flowvo.camera import (
     check_camera_roll,
     check_distortion,
     check_intrinsics,
+    check_readout,
 )
 from flowvo.errors import FlowvoError
 
@@ -37,7 +39,7 @@ class GivenCamera:
     """What the user said about the camera; every part optional. ``source``: "calib" or "flags" (for the
     intrinsics), ``where``: the file or flags to name in errors, ``image_size_hw``: (height, width) of the
     images the calibration file was made at, when it says; ``distortion_where``: where ``distortion`` came
-    from (``--dist`` or the file)."""
+    from (``--dist`` or the file); ``readout_ms``: a rolling shutter's readout time (milliseconds)."""
 
     intrinsics: CameraIntrinsics | None = None
     distortion: LensDistortion | None = None
@@ -48,19 +50,20 @@ class GivenCamera:
     image_size_hw: tuple[int, int] | None = None
     distortion_where: str | None = None
     roll_deg: float | None = None
+    readout_ms: float | None = None
 
 
 def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: float | None, cy: float | None,
                  distortion: tuple[float, ...] | None = None, distortion_model: str | None = None,
                  camera_height_m: float | None = None, camera_pitch_deg: float | None = None,
-                 camera_roll_deg: float | None = None) -> GivenCamera:
+                 camera_roll_deg: float | None = None, readout_ms: float | None = None) -> GivenCamera:
     """Parse the camera flags (one-line errors for partial or conflicting ones)."""
     numbers = {"--fx": fx, "--fy": fy, "--cx": cx, "--cy": cy}
     given = [name for name, value in numbers.items() if value is not None]
     if calib is not None and given:
         raise FlowvoError(f"give either --calib or {', '.join(given)}, not both")
     intrinsics, file_distortion, file_height, file_pitch, source, where = None, None, None, None, None, "camera flags"
-    file_roll = None
+    file_roll, file_readout = None, None
     size_hw = None
     if calib is not None:
         from flowvo.calibration.files import read_camera_file
@@ -68,7 +71,7 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
         camera_file = read_camera_file(calib)
         intrinsics, source, where, size_hw = camera_file.intrinsics, "calib", calib, camera_file.image_size_hw
         file_distortion, file_height, file_pitch = camera_file.distortion, camera_file.height_m, camera_file.pitch_deg
-        file_roll = camera_file.roll_deg
+        file_roll, file_readout = camera_file.roll_deg, camera_file.readout_ms
     elif given:
         missing = [name for name in numbers if name not in given]
         if missing:
@@ -90,15 +93,18 @@ def given_camera(calib: str | None, fx: float | None, fy: float | None, cx: floa
         file_pitch = check_camera_pitch(camera_pitch_deg, "--camera-pitch")
     if camera_roll_deg is not None:
         file_roll = check_camera_roll(camera_roll_deg, "--camera-roll")
+    if readout_ms is not None:
+        file_readout = check_readout(readout_ms, "--readout-ms")
     return GivenCamera(intrinsics, file_distortion, file_height, source, where, file_pitch, size_hw, distortion_where,
-                       file_roll)
+                       file_roll, file_readout)
 
 
 def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[int, int], where: str,
                  drive_height_m: float | None = None, drive_pitch_deg: float | None = None,
                  drive_roll_deg: float | None = None) -> Camera:
     """The camera a drive runs with: ``given`` over the ``drive``'s own (and the height, pitch and roll the drive
-    states, ``drive_height_m``, ``drive_pitch_deg`` and ``drive_roll_deg``), checked against its frames."""
+    states, ``drive_height_m``, ``drive_pitch_deg`` and ``drive_roll_deg``; the readout time its camera states),
+    checked against its frames."""
     if given.intrinsics is None and drive is None:
         raise FlowvoError("no camera intrinsics: give --calib FILE or --fx --fy --cx --cy (pixels of the frames)",
                           where)
@@ -110,11 +116,13 @@ def drive_camera(given: GivenCamera, drive: Camera | None, image_size_hw: tuple[
                       if p is not None), 0.0)
     roll_deg = next((r for r in (given.roll_deg, drive_roll_deg, drive.roll_deg if drive else None)
                      if r is not None), 0.0)
+    readout_ms = next((r for r in (given.readout_ms, drive.readout_ms if drive else None) if r is not None), 0.0)
     source = given.source or drive.source  # type: ignore[union-attr]
     scaled_from_hw = None
     if given.intrinsics is not None and given.image_size_hw not in (None, tuple(image_size_hw)):
         intrinsics, scaled_from_hw = scaled_to_frames(intrinsics, given.image_size_hw, image_size_hw, given.where)
-    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source, pitch_deg, scaled_from_hw, roll_deg)
+    camera = Camera(intrinsics, distortion or LensDistortion(), height_m, source, pitch_deg, scaled_from_hw, roll_deg,
+                    readout_ms)
     check_intrinsics(camera.intrinsics, image_size_hw, given.where if given.intrinsics else where)
     check_camera_pitch(pitch_deg, where)  # a drive's own (a bag's /tf_static) may be beyond what flowvo handles
     check_camera_roll(roll_deg, where)

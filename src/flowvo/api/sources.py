@@ -39,7 +39,7 @@ def run_options(camera: InternalCamera | None, method_name: str = DEFAULT_METHOD
         camera_fields = {"fx": i.fx, "fy": i.fy, "cx": i.cx, "cy": i.cy, "distortion": distortion,
                          "distortion_model": None if distortion is None else camera.distortion.model,
                          "camera_height_m": camera.height_m, "camera_pitch_deg": camera.pitch_deg,
-                         "camera_roll_deg": camera.roll_deg}
+                         "camera_roll_deg": camera.roll_deg, "readout_ms": camera.readout_ms}
     return RunOptions(out="", method=method_name, model=model, flow_method=flow_method, latency_frames=latency_frames,
                       **camera_fields, **fields)
 
@@ -132,5 +132,5 @@ def pushed_drive(options: RunOptions, source: PushedFrames) -> Drive:
 
     given = given_camera(options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
                          options.distortion_model, options.camera_height_m, options.camera_pitch_deg,
-                         options.camera_roll_deg)
+                         options.camera_roll_deg, options.readout_ms)
     return Drive(source, drive_camera(given, None, source.image_size_hw, source.name))

@@ -175,8 +175,8 @@ def _count(value: object) -> int | None:
 def recorded_difference(run: dict[str, Any], settings: dict[str, Any]) -> str | None:
     """The first of ``settings`` (:func:`flowvo.batch.spec.processing_settings`) that a drive's run.json
     ``run`` records otherwise, as "NAME recorded -> asked"; None when all it records agree (the method,
-    the evaluation's sub-path lengths, the classical method's scale, the camera height, pitch, roll, distortion and
-    intrinsics given, whether intrinsics were given at all, a frame limit)."""
+    the evaluation's sub-path lengths, the classical method's scale, the camera height, pitch, roll, readout time,
+    distortion and intrinsics given, whether intrinsics were given at all, a frame limit)."""
     from flowvo.camera import LensDistortion
 
     camera = run.get("camera") if isinstance(run.get("camera"), dict) else {}
@@ -184,7 +184,7 @@ def recorded_difference(run: dict[str, Any], settings: dict[str, Any]) -> str | 
                                           ("lengths_m", run.get("lengths_m"), settings.get("lengths_m"))]
     if settings.get("method") == "classical":
         checks.append(("classical_scale", run.get("scale_source"), settings.get("classical_scale")))
-    for name in ("camera_height_m", "camera_pitch_deg", "camera_roll_deg"):
+    for name in ("camera_height_m", "camera_pitch_deg", "camera_roll_deg", "readout_ms"):
         if settings.get(name) is not None:
             checks.append((name, camera.get(name), settings[name]))
     if settings.get("distortion") is not None:

@@ -88,7 +88,8 @@ def check_drive_options(drive: Drive, options: RunOptions, intrinsics_checked: d
     if drive.kind == "bag" and options.topic is None:
         raise FlowvoError(f"drive {drive.name} is a bag: give --topic IMAGE_TOPIC (or a 'topic' manifest column)")
     given = (options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
-             options.distortion_model, options.camera_height_m, options.camera_pitch_deg, options.camera_roll_deg)
+             options.distortion_model, options.camera_height_m, options.camera_pitch_deg, options.camera_roll_deg,
+             options.readout_ms)
     if given not in intrinsics_checked:
         try:
             given_camera(*given)

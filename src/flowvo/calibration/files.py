@@ -34,7 +34,8 @@ MAX_IMAGE_SIDE_PX = 100_000  # an image side stated by a calibration file; beyon
 class CameraFile:
     """What a calibration file says: intrinsics (pixels), lens distortion, the camera height above the road
     (metres, when the file has it), the image size (height, width) it was calibrated at (when stated), the
-    kind of file, and the camera's pitch below the road and roll (degrees, when the file has them: KITTI calib.txt)."""
+    kind of file, and the camera's pitch below the road and roll (degrees) and its rolling shutter's readout time
+    (milliseconds), when the file has them (KITTI calib.txt)."""
 
     intrinsics: CameraIntrinsics
     distortion: LensDistortion
@@ -43,6 +44,7 @@ class CameraFile:
     kind: str
     pitch_deg: float | None = None
     roll_deg: float | None = None
+    readout_ms: float | None = None
 
 
 def read_camera_file(path: str | Path) -> CameraFile:
@@ -84,7 +86,7 @@ def _kitti(path: Path) -> CameraFile:
     intrinsics = CameraIntrinsics.from_matrix(calibration.K0)
     check_intrinsics(intrinsics, None, str(path))
     return CameraFile(intrinsics, calibration.distortion, calibration.camera_height_m, None, "kitti calib.txt",
-                      calibration.camera_pitch_deg, calibration.camera_roll_deg)
+                      calibration.camera_pitch_deg, calibration.camera_roll_deg, calibration.readout_ms)
 
 
 def _opencv_storage(text: str, path: Path) -> CameraFile:

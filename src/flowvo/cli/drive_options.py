@@ -19,7 +19,7 @@ def add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = 
                        one_drive: bool = True) -> None:
     """The drive, camera and method options of ``run``, ``bench`` and ``batch`` (``one_drive`` False: no
     drive options but the bag topics, which apply to every bag of a batch)."""
-    from flowvo.camera import MAX_CAMERA_PITCH_DEG, MAX_CAMERA_ROLL_DEG
+    from flowvo.camera import MAX_CAMERA_PITCH_DEG, MAX_CAMERA_ROLL_DEG, MAX_READOUT_MS
 
     drive = p.add_argument_group("drive (one of)" if one_drive else "bags")
     if one_drive:
@@ -47,6 +47,10 @@ def add_drive_options(p: argparse.ArgumentParser, methods_default: str | None = 
     camera.add_argument("--camera-roll", type=bounded(float, -MAX_CAMERA_ROLL_DEG, MAX_CAMERA_ROLL_DEG),
                         metavar="DEG", help="the camera is rolled DEG degrees about its optical axis after its pitch "
                                             "(right side down positive; default: the calibration's, else 0)")
+    camera.add_argument("--readout-ms", type=bounded(float, 0.0, MAX_READOUT_MS), metavar="MS",
+                        help="a rolling shutter exposes the frame's last row MS milliseconds after its first (most "
+                             "dash-cams and phones; see the camera's data sheet; default: the calibration's, else 0: "
+                             "a global shutter, as KITTI's)")
     if methods_default is not None:
         p.add_argument("--method", choices=list(METHODS), default=methods_default, help=methods_help())
     p.add_argument("--model", help="network checkpoint for cnn and flowvo's fallback (default: the packaged model)")
@@ -66,7 +70,7 @@ def run_options(args: argparse.Namespace, out: str) -> RunOptions:
                       camera_info_topic=args.camera_info_topic, calib=args.calib, fx=args.fx,
                       fy=args.fy, cx=args.cx, cy=args.cy, distortion=tuple(args.dist) if args.dist else None,
                       distortion_model=args.distortion_model, camera_height_m=args.camera_height,
-                      camera_pitch_deg=args.camera_pitch, camera_roll_deg=args.camera_roll,
+                      camera_pitch_deg=args.camera_pitch, camera_roll_deg=args.camera_roll, readout_ms=args.readout_ms,
                       latency_frames=args.latency,
                       method=getattr(args, "method", DEFAULT_METHOD), model=args.model, flow_method=args.flow_method,
                       classical_scale=getattr(args, "scale_from", "height"),

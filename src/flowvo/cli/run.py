@@ -152,6 +152,7 @@ def _camera_line(summary: dict) -> str:
             " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
     pitch = f", pitched {camera['camera_pitch_deg']:g} deg down" if camera["camera_pitch_deg"] else ""
     pitch += f", rolled {camera['camera_roll_deg']:g} deg (right side down)" if camera["camera_roll_deg"] else ""
+    pitch += f", rolling shutter read out over {camera['readout_ms']:g} ms" if camera.get("readout_ms") else ""
     scaled = "" if "scaled_from_image_size" not in camera else \
         " (scaled to the frames from the calibration's {}x{} images)".format(*camera["scaled_from_image_size"])
     return (f"camera ({camera['source']}): fx {camera['fx']:.1f} fy {camera['fy']:.1f} cx {camera['cx']:.1f} "

@@ -13,7 +13,8 @@ def command(args: argparse.Namespace) -> int:
     from flowvo.synth.synth_camera import SynthCamera
 
     camera = SynthCamera(args.camera_height, args.fov, LensDistortion(args.distortion_model, tuple(args.distortion)),
-                         args.fps, args.camera_pitch, bonnet_rows=args.bonnet, roll_deg=args.camera_roll)
+                         args.fps, args.camera_pitch, bonnet_rows=args.bonnet, roll_deg=args.camera_roll,
+                         readout_ms=args.readout_ms)
     folders = synthesize(args.out, args.sequences, args.seed, args.frames, args.trajectory, args.scale,
                          args.scene, args.gt_flow, args.workers, args.max_speed, args.force, camera,
                          args.ground_texture_scale)
@@ -23,7 +24,7 @@ def command(args: argparse.Namespace) -> int:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG, MAX_CAMERA_ROLL_DEG
+    from flowvo.camera import KITTI_CAMERA_HEIGHT_M, MAX_CAMERA_PITCH_DEG, MAX_CAMERA_ROLL_DEG, MAX_READOUT_MS
     from flowvo.synth.bonnet import MAX_BONNET_ROWS
     from flowvo.synth.synth_camera import PATH_RATE_HZ
     from flowvo.synth.textures import GROUND_TEXTURE_SCALE_RANGE
@@ -52,6 +53,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                         default=0.0, metavar="DEG",
                         help="camera rolled by DEG degrees about its optical axis after its pitch, right side down "
                              "(default 0)")
+    camera.add_argument("--readout-ms", type=bounded(float, 0.0, MAX_READOUT_MS), default=0.0, metavar="MS",
+                        help="a rolling shutter: each frame's rows exposed top to bottom over MS milliseconds "
+                             "(default 0: a global shutter)")
     camera.add_argument("--fov", type=bounded(float, 20.0, 150.0), metavar="DEG",
                         help="horizontal field of view in degrees (default KITTI's focal length, ~81.6)")
     camera.add_argument("--distortion", "--dist", nargs="+", type=float, default=[], metavar="K",

@@ -47,6 +47,7 @@ class RunOptions:
     camera_height_m: float | None = None  # above the road; None: the calibration's, else KITTI's 1.65 m
     camera_pitch_deg: float | None = None  # below the road's plane, down +; None: the calibration's, else 0
     camera_roll_deg: float | None = None  # about the optical axis, right side down +; None: the calibration's, else 0
+    readout_ms: float | None = None  # a rolling shutter's, first row to last; None: the calibration's, else 0 (global)
     latency_frames: int | None = None  # the scale window's latency (frames; None: its default); windowed methods
     method: str = DEFAULT_METHOD
     model: str | None = None
@@ -80,7 +81,7 @@ def open_drive(options: RunOptions) -> Drive:
                           + (f" (got {' and '.join(drives)})" if drives else ""))
     given = given_camera(options.calib, options.fx, options.fy, options.cx, options.cy, options.distortion,
                          options.distortion_model, options.camera_height_m, options.camera_pitch_deg,
-                         options.camera_roll_deg)
+                         options.camera_roll_deg, options.readout_ms)
     source = _open_source(options, given)
     where = str(options.data or options.video or options.bag)
     estimated = None

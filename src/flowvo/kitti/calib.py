@@ -3,8 +3,9 @@
 flowvo also reads five optional lines that describe the camera beyond KITTI's: ``distortion_model: NAME``
 (default plumb_bob, or rational_polynomial for 8 numbers), ``distortion: k1 k2 p1 p2 [k3 ...]``,
 ``camera_height_m: H`` (metres above the road), ``camera_pitch_deg: P`` (degrees below the road's plane, down
-positive) and ``camera_roll_deg: R`` (degrees about the optical axis after the pitch, right side down positive), and
-writes them for cameras that have them.
+positive), ``camera_roll_deg: R`` (degrees about the optical axis after the pitch, right side down positive) and
+``readout_ms: T`` (a rolling shutter's time from the first row's exposure to the last's, milliseconds), and writes them
+for cameras that have them.
 """
 
 from __future__ import annotations
@@ -15,12 +16,19 @@ from pathlib import Path
 
 import numpy as np
 
-from flowvo.camera import NO_DISTORTION, LensDistortion, check_camera_height, check_camera_pitch, check_camera_roll
+from flowvo.camera import (
+    NO_DISTORTION,
+    LensDistortion,
+    check_camera_height,
+    check_camera_pitch,
+    check_camera_roll,
+    check_readout,
+)
 from flowvo.errors import FlowvoError
 from flowvo.io.text_numbers import parse_float
 
 REQUIRED_KEYS = ("P0",)
-CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m", "camera_pitch_deg", "camera_roll_deg")
+CAMERA_KEYS = ("distortion_model", "distortion", "camera_height_m", "camera_pitch_deg", "camera_roll_deg", "readout_ms")
 
 
 @dataclass(frozen=True)
@@ -32,6 +40,7 @@ class Calibration:
     camera_height_m: float | None = None
     camera_pitch_deg: float | None = None
     camera_roll_deg: float | None = None
+    readout_ms: float | None = None
 
     @property
     def K0(self) -> np.ndarray:
@@ -92,10 +101,10 @@ def _check_projection(P: np.ndarray, path: Path, line_number: int) -> None:
 
 
 def _camera_lines(extras: dict[str, tuple[int, str]], path: Path
-                  ) -> tuple[LensDistortion, float | None, float | None, float | None]:
-    """The lens distortion, camera height, pitch and roll of the optional camera lines."""
+                  ) -> tuple[LensDistortion, float | None, float | None, float | None, float | None]:
+    """The lens distortion, camera height, pitch, roll and readout time of the optional camera lines."""
     numbers: dict[str, list[float]] = {}
-    for key in ("distortion", "camera_height_m", "camera_pitch_deg", "camera_roll_deg"):
+    for key in ("distortion", "camera_height_m", "camera_pitch_deg", "camera_roll_deg", "readout_ms"):
         if key in extras:
             line_number, text = extras[key]
             try:
@@ -111,11 +120,11 @@ def _camera_lines(extras: dict[str, tuple[int, str]], path: Path
             distortion = LensDistortion(model or default_model, tuple(coefficients))
         except FlowvoError as error:
             raise FlowvoError(str(error), path, line_number) from None
-    height_m, pitch_deg, roll_deg = (_single_number(numbers, extras, key, unit, check, path) for key, unit, check in
-                                     (("camera_height_m", "metres", check_camera_height),
-                                      ("camera_pitch_deg", "degrees", check_camera_pitch),
-                                      ("camera_roll_deg", "degrees", check_camera_roll)))
-    return distortion, height_m, pitch_deg, roll_deg
+    height_m, pitch_deg, roll_deg, readout_ms = (
+        _single_number(numbers, extras, key, unit, check, path) for key, unit, check in
+        (("camera_height_m", "metres", check_camera_height), ("camera_pitch_deg", "degrees", check_camera_pitch),
+         ("camera_roll_deg", "degrees", check_camera_roll), ("readout_ms", "milliseconds", check_readout)))
+    return distortion, height_m, pitch_deg, roll_deg, readout_ms
 
 
 def _single_number(numbers: dict[str, list[float]], extras: dict[str, tuple[int, str]], key: str, unit: str,
@@ -143,4 +152,6 @@ def format_calibration(calibration: Calibration) -> str:
         lines.append(f"camera_pitch_deg: {calibration.camera_pitch_deg:.6f}")
     if calibration.camera_roll_deg is not None:
         lines.append(f"camera_roll_deg: {calibration.camera_roll_deg:.6f}")
+    if calibration.readout_ms is not None:
+        lines.append(f"readout_ms: {calibration.readout_ms:.6f}")
     return "\n".join(lines) + "\n"

@@ -45,6 +45,7 @@ from flowvo.odometry.road_scale import (
     road_flow_within_reach,
     road_room,
 )
+from flowvo.odometry.rolling_shutter import baseline_shares
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
@@ -318,7 +319,10 @@ class FlowGeometryStep(WorkingFrames):
         self.road_length.advance(fit.R, dt_s, 0.0 if last_speed_mps is None else last_speed_mps * dt_s)  # the step at
         # the last speed: where along the drive the road measured ahead lies under the car (its own length comes later)
         taken = len(self.road_length.pitches_taken_deg)
-        plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured)
+        shares = None if not self.camera.readout_ms else baseline_shares(
+            self.road.frame_rows(flow.road_prev), self.road.frame_rows(flow.road_next), self.working_hw[0],
+            self.camera.readout_ms / 1000.0, time_s - span.start_s)
+        plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured, shares)
         mounting_taken = len(self.road_length.pitches_taken_deg) > taken
         if mounting_taken:  # the drive's mounting: the car's axes turn with it, and
             # a camera found to look up, or rolled, has its road crop and grid moved below its horizon

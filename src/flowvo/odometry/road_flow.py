@@ -100,6 +100,11 @@ class RoadFlow:
         level_top = road_crop(self.working_hw, self.K)[0].start
         return slice(min(level_top, self.crop[0].start), self.crop[0].stop), self.crop[1]
 
+    def frame_rows(self, points_px: np.ndarray) -> np.ndarray:
+        """The rows (N,) where ideal pinhole pixels (N, 2) of the working frame lie in the frame as it came, through
+        the lens (the sensor's rows, as a rolling shutter reads them)."""
+        return distort_points(points_px, self.K, self.camera.distortion)[:, 1]
+
     def undistort(self, points_px: np.ndarray) -> np.ndarray:
         """Working-frame pixels (N, 2) to ideal pinhole pixels."""
         return undistort_points(points_px, self.K, self.camera.distortion)

@@ -55,12 +55,14 @@ class RoadLength:
         """No rotation was measured: the next plane starts afresh."""
         self.normal.forget()
 
-    def measure(self, road: tuple[np.ndarray, np.ndarray], key_fit: EssentialMotion | None, measured: bool
-                ) -> tuple[RoadPlane | None, float | None]:
+    def measure(self, road: tuple[np.ndarray, np.ndarray], key_fit: EssentialMotion | None, measured: bool,
+                baseline_shares: np.ndarray | None = None) -> tuple[RoadPlane | None, float | None]:
         """The trusted road plane (its normal blended, :meth:`RoadNormal.smoothed`; ``measured``: the flow was
         within reach, so the blend is carried on) of the road correspondences ``road`` (key frame, current frame)
         under the key frame's motion ``key_fit``, and the metres travelled since the key frame; (None, None)
-        without a fit or a trusted plane. A trusted plane's points tell ``noise`` how far the road flow errs
+        without a fit or a trusted plane. ``baseline_shares`` (N,): each point's baseline over the span's (a rolling
+        shutter's, :func:`flowvo.odometry.rolling_shutter.baseline_shares`; None: a global shutter's, all one). A
+        trusted plane's points tell ``noise`` how far the road flow errs
         (:class:`flowvo.odometry.road_noise.RoadFlowNoise`)."""
         self.near_parallax_px = 0.0
         if key_fit is None or not len(road[0]):
@@ -70,6 +72,8 @@ class RoadLength:
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
         points = road_points(road[0], road[1], self.K, key_fit, levelling=self.levelling)
+        if points is not None and baseline_shares is not None:
+            points = points * baseline_shares[:, None]  # each point's distance from the camera scales with its baseline
         plane = None if points is None else trusted_plane_among(points, tally=self.tally, profile=self.profile)
         if plane is not None:  # the ground beside the road learns from the trusted plane's points
             residuals = road_residuals(points, plane)

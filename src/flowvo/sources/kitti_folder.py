@@ -33,7 +33,7 @@ class KittiFolderSource:
         calibration = self.sequence.calibration
         return Camera(CameraIntrinsics.from_matrix(calibration.K0), calibration.distortion,
                       calibration.camera_height_m, "kitti", calibration.camera_pitch_deg or 0.0,
-                      roll_deg=calibration.camera_roll_deg or 0.0)
+                      roll_deg=calibration.camera_roll_deg or 0.0, readout_ms=calibration.readout_ms or 0.0)
 
     @property
     def camera_height_m(self) -> float | None:

@@ -37,6 +37,8 @@ def plan_sequence(name: str, seed: int, frames: int | None, trajectory: str | Pa
     many times finer than by default."""
     camera = camera or SynthCamera()
     _check_scale(scale, camera)
+    if gt_flow and camera.readout_ms:
+        raise FlowvoError("--gt-flow: the true flow is written for a global shutter; leave out --readout-ms")
     if frames is not None and frames < 2:
         raise FlowvoError(f"--frames {frames}: a sequence needs at least 2 frames")
     if seed < 0 or not 0 < max_speed_mps <= 100:

@@ -24,15 +24,22 @@ def path_frames_for(frames: int, path_rate_hz: float, rate_hz: float) -> int:
     return math.ceil((frames - 1) * path_rate_hz / rate_hz - 1e-9) + 1
 
 
+def poses_at(T_world_cam: np.ndarray, path_rate_hz: float, times_s: np.ndarray) -> np.ndarray:
+    """Poses (T, 4, 4) at ``times_s`` (T,) (seconds from the first sample; the last sample's after it) of a path
+    (N, 4, 4) sampled at ``path_rate_hz``."""
+    path_times_s = np.arange(len(T_world_cam)) / path_rate_hz
+    times_s = np.minimum(times_s, path_times_s[-1])
+    out = np.tile(np.eye(4), (len(times_s), 1, 1))
+    out[:, :3, 3] = PchipInterpolator(path_times_s, T_world_cam[:, :3, 3], axis=0)(times_s)
+    out[:, :3, :3] = Slerp(path_times_s, Rotation.from_matrix(T_world_cam[:, :3, :3]))(times_s).as_matrix()
+    return out
+
+
 def resample_poses(T_world_cam: np.ndarray, path_rate_hz: float, rate_hz: float, frames: int) -> np.ndarray:
     """Poses (frames, 4, 4) at times ``i / rate_hz`` of a path (N, 4, 4) sampled at ``path_rate_hz``."""
     if rate_hz == path_rate_hz and frames <= len(T_world_cam):
         return T_world_cam[:frames].copy()
-    path_times_s = np.arange(len(T_world_cam)) / path_rate_hz
-    times_s = np.minimum(np.arange(frames) / rate_hz, path_times_s[-1])
-    out = np.tile(np.eye(4), (frames, 1, 1))
-    out[:, :3, 3] = PchipInterpolator(path_times_s, T_world_cam[:, :3, 3], axis=0)(times_s)
-    out[:, :3, :3] = Slerp(path_times_s, Rotation.from_matrix(T_world_cam[:, :3, :3]))(times_s).as_matrix()
+    out = poses_at(T_world_cam, path_rate_hz, np.arange(frames) / rate_hz)
     ratio = path_rate_hz / rate_hz
     on_sample = np.flatnonzero(np.isclose(np.arange(frames) * ratio, np.round(np.arange(frames) * ratio),
                                           rtol=0.0, atol=1e-9))

@@ -24,8 +24,8 @@ from flowvo.kitti.poses import write_kitti_poses
 from flowvo.progress import progress
 from flowvo.projection import flow_from_depth, occlusion_mask
 from flowvo.synth.bonnet import Bonnet, make_bonnet
-from flowvo.synth.frame_rate import frames_spanning, resample_poses
-from flowvo.synth.render import PixelRays, pixel_rays, render
+from flowvo.synth.frame_rate import frames_spanning, poses_at, resample_poses
+from flowvo.synth.render import PixelRays, RowBand, pixel_rays, render, render_rolling_shutter, row_bands
 from flowvo.synth.synth_camera import PATH_RATE_HZ, SynthCamera
 from flowvo.synth.textures import make_textures
 from flowvo.synth.world import World, build_world
@@ -61,6 +61,16 @@ class SynthSpec:
         level = resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, frames)
         return level if not (self.camera.pitch_deg or self.camera.roll_deg) else level @ self.camera.mounting()
 
+    def band_poses(self, time_shares: np.ndarray) -> np.ndarray:
+        """Camera-to-world poses (F, B, 4, 4) of a rolling shutter's row bands: frame ``i``'s band ``b`` at
+        ``i / fps + time_shares[b] * readout`` (seconds; :func:`flowvo.synth.render.row_bands`), mounted as
+        :meth:`frame_poses`."""
+        frames = len(self.frame_poses())
+        times_s = np.arange(frames)[:, None] / self.camera.fps + np.asarray(time_shares)[None] * \
+            self.camera.readout_ms / 1000.0
+        level = poses_at(self.T_world_cam, PATH_RATE_HZ, times_s.ravel()).reshape(frames, len(time_shares), 4, 4)
+        return level if not (self.camera.pitch_deg or self.camera.roll_deg) else level @ self.camera.mounting()
+
 
 RENDERER_GENERATION = 2  # raised when the same spec renders other frames (2: the road ahead on climbs), so that
 # frames of an earlier renderer are never resumed beside new ones
@@ -79,6 +89,8 @@ def spec_digest(spec: SynthSpec) -> str:
         digest.update(f"bonnet {spec.camera.bonnet_rows!r}".encode())
     if spec.camera.roll_deg:
         digest.update(f"roll {spec.camera.roll_deg!r}".encode())
+    if spec.camera.readout_ms:
+        digest.update(f"readout {spec.camera.readout_ms!r}".encode())
     if spec.ground_texture_scale != 1.0:
         digest.update(f"ground texture {spec.ground_texture_scale!r}".encode())
     return digest.hexdigest()
@@ -97,31 +109,38 @@ def intrinsics(scale: float, camera: SynthCamera | None = None) -> tuple[np.ndar
 
 def kitti_calibration(K: np.ndarray, camera: SynthCamera | None = None) -> Calibration:
     """P0..P3 as in KITTI: P1 (right grey) at the 0.54 m baseline; colour cameras share the grey ones.
-    A camera other than KITTI's adds its lens distortion, its height above the road and its mounting (pitch, roll)."""
+    A camera other than KITTI's adds its lens distortion, its height above the road, its mounting (pitch, roll) and
+    its rolling shutter's readout time."""
     P0 = np.hstack([K, np.zeros((3, 1))])
     P1 = P0.copy()
     P1[0, 3] = -K[0, 0] * STEREO_BASELINE_M
     matrices = {"P0": P0, "P1": P1, "P2": P0.copy(), "P3": P1.copy()}
     if camera is None or camera.is_kitti:
         return Calibration(matrices)
-    return Calibration(matrices, camera.distortion, camera.height_m, camera.pitch_deg or None, camera.roll_deg or None)
+    return Calibration(matrices, camera.distortion, camera.height_m, camera.pitch_deg or None, camera.roll_deg or None,
+                       camera.readout_ms or None)
 
 
 _worker_state: dict = {}
 
 
-def _init_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None,
+def _init_worker(world: World, seed: int, rays: PixelRays | list[RowBand], bonnet: Bonnet | None = None,
                  ground_texture_scale: float = 1.0) -> None:
     _worker_state.update(world=world, textures=make_textures(seed, ground_texture_scale), rays=rays, bonnet=bonnet)
 
 
 def _render_one(pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """One frame from ``pose`` (4, 4), or for a rolling shutter (the worker's rays in row bands) from each band's
+    pose (B, 4, 4)."""
     state = _worker_state
-    image, depth = render(state["world"], state["textures"], pose, state["rays"])
+    if isinstance(state["rays"], list):
+        image, depth = render_rolling_shutter(state["world"], state["textures"], pose, state["rays"])
+    else:
+        image, depth = render(state["world"], state["textures"], pose, state["rays"])
     return (image, depth) if state["bonnet"] is None else state["bonnet"].paint(image, depth)
 
 
-def _init_pool_worker(world: World, seed: int, rays: PixelRays, bonnet: Bonnet | None = None,
+def _init_pool_worker(world: World, seed: int, rays: PixelRays | list[RowBand], bonnet: Bonnet | None = None,
                       ground_texture_scale: float = 1.0) -> None:
     """A render process: Ctrl-C is left to the parent, which stops the pool and reports one line."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -149,13 +168,17 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
         **({} if spec.ground_texture_scale == 1.0 else {"ground_texture_scale": spec.ground_texture_scale}),
     })
     world = build_world(spec.T_world_cam, spec.seed, spec.scene, camera.height_m)
-    rays = pixel_rays(K, size, camera.distortion)
+    rays: PixelRays | list[RowBand] = pixel_rays(K, size, camera.distortion)
+    render_poses = poses  # each frame's, or for a rolling shutter each of its row bands'
+    if camera.readout_ms:
+        rays = row_bands(K, size, camera.distortion)
+        render_poses = spec.band_poses(np.array([band.time_share for band in rays]))
     bonnet = make_bonnet(size, camera.bonnet_rows, K, spec.seed) if camera.bonnet_rows else None
     todo = [i for i in range(len(poses)) if not (image_dir / f"{i:06d}.png").exists()]
     if spec.gt_flow:
         todo = list(range(len(poses)))  # depth of every frame is needed for the flow
     workers = workers or max(1, min(os.cpu_count() or 1, 8))
-    frames = [poses[i] for i in todo]
+    frames = [render_poses[i] for i in todo]
     with ExitStack() as stack:
         if workers > 1 and len(frames) > 4:
             # spawn, not fork: a forked child inherits OpenCV's thread pool in a locked state and hangs

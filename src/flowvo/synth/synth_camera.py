@@ -1,5 +1,5 @@
 """The camera ``flowvo synth`` renders through: height above the road, field of view, lens, frame rate, pitch,
-and a car's bonnet in its bottom rows.
+a car's bonnet in its bottom rows and a rolling shutter.
 
 The defaults are KITTI's left grey camera (1.65 m, fx 718.856 px over 1241 px, no distortion, 10 Hz) and
 leave renders byte-identical to the renderer before these options existed.
@@ -19,6 +19,7 @@ from flowvo.camera import (
     check_camera_height,
     check_camera_pitch,
     check_camera_roll,
+    check_readout,
     distort_points,
     mounting_rotation,
     undistort_points,
@@ -39,8 +40,9 @@ class SynthCamera:
     """``height_m`` above the road (metres), horizontal field of view ``fov_deg`` (degrees over the image
     width; None = KITTI's focal length, ~81.6 deg), lens ``distortion``, frame rate ``fps`` (Hz) and
     ``pitch_deg``, how far the camera is pitched down from level (degrees), ``roll_deg``, how far it is rolled about
-    its optical axis, right side down (degrees), and ``bonnet_rows``, the share of the image height a static bonnet
-    covers at the bottom (0: none; :mod:`flowvo.synth.bonnet`)."""
+    its optical axis, right side down (degrees), ``bonnet_rows``, the share of the image height a static bonnet
+    covers at the bottom (0: none; :mod:`flowvo.synth.bonnet`), and ``readout_ms``, a rolling shutter's time from
+    exposing the first (top) row to the last (milliseconds; 0: a global shutter)."""
 
     height_m: float = KITTI_CAMERA_HEIGHT_M
     fov_deg: float | None = None
@@ -50,11 +52,13 @@ class SynthCamera:
     bonnet_rows: float = field(default=0.0, repr=False)  # out of the repr, so that the digests of renders made
     # before the bonnet existed stay the same (spec_digest adds it when there is one)
     roll_deg: float = field(default=0.0, repr=False)  # likewise
+    readout_ms: float = field(default=0.0, repr=False)  # likewise
 
     def __post_init__(self) -> None:
         check_camera_height(self.height_m, "--camera-height")
         check_camera_pitch(self.pitch_deg, "--camera-pitch")
         check_camera_roll(self.roll_deg, "--camera-roll")
+        check_readout(self.readout_ms, "--readout-ms")
         if self.fov_deg is not None and not FOV_RANGE_DEG[0] <= self.fov_deg <= FOV_RANGE_DEG[1]:
             raise FlowvoError(f"--fov {self.fov_deg:g}: use a horizontal field of view in "
                               f"[{FOV_RANGE_DEG[0]:g}, {FOV_RANGE_DEG[1]:g}] degrees")
@@ -63,6 +67,9 @@ class SynthCamera:
         if not 0.0 <= self.bonnet_rows <= MAX_BONNET_ROWS:
             raise FlowvoError(f"--bonnet {self.bonnet_rows:g}: use a share of the image height in "
                               f"[0, {MAX_BONNET_ROWS:g}]")
+        if self.readout_ms > 1000.0 / self.fps:
+            raise FlowvoError(f"--readout-ms {self.readout_ms:g}: a rolling shutter reads a frame out within the "
+                              f"frame interval, {1000.0 / self.fps:g} ms at --fps {self.fps:g}")
 
     @property
     def is_kitti(self) -> bool:
@@ -84,11 +91,13 @@ class SynthCamera:
         return T
 
     def record(self) -> dict:
-        """The camera as ``synthetic.json`` records it (the pitch, the roll and the bonnet when it has them: renders of
-        level cameras without a bonnet made before the options keep their record, and resume)."""
+        """The camera as ``synthetic.json`` records it (the pitch, the roll, the bonnet and the readout time when it has
+        them: renders of level global-shutter cameras without a bonnet made before the options keep their record, and
+        resume)."""
         pitch = {"pitch_deg": self.pitch_deg} if self.pitch_deg else {}
         pitch |= {"roll_deg": self.roll_deg} if self.roll_deg else {}
         bonnet = {"bonnet_rows": self.bonnet_rows} if self.bonnet_rows else {}
+        bonnet |= {"readout_ms": self.readout_ms} if self.readout_ms else {}
         return {"camera_height_m": self.height_m, "fov_deg": self.fov_deg, "distortion_model": self.distortion.model,
                 "distortion": list(self.distortion.coefficients), "fps": self.fps, **pitch, **bonnet}
 

@@ -1,0 +1,29 @@
+"""A rolling shutter's share of the road's baseline.
+
+A rolling shutter exposes a frame's rows one after another, top to bottom, over its readout time. A road point seen
+in row ``r1`` of a road key frame and in row ``r2`` of the current frame (of ``R`` rows) was therefore seen
+``(r2 - r1) / R * readout`` later or earlier than the frames' own interval says. The near road moves down the frame
+between two frames, so it is seen over a longer baseline than the frames' interval: with the interval's, its
+triangulated depth comes out short by that share, the road plane nearer and every length long (a synthetic drive at
+10 Hz read 30 ms a frame: path +2.7 %, t_err 2.84 % against 0.45 % for a global shutter).
+
+At a constant velocity over the span, a point triangulated from two camera centres a baseline ``b`` apart lies at
+``b`` over the assumed baseline times its triangulated distance from the first centre. The first centre itself lies
+``r1 / R * readout`` of the motion past the key frame's: along the direction of travel, which moves a point along the
+road's plane and leaves the plane's distance as it is. Rotation within the readout is left out (a few thousandths of
+a degree a row at a car's yaw rates).
+
+Rows of the frames as they come (a lens's distortion not undone: the sensor's rows); times in seconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def baseline_shares(rows_key_px: np.ndarray, rows_current_px: np.ndarray, frame_rows: int, readout_s: float,
+                    span_s: float) -> np.ndarray:
+    """Each road point's baseline over the span's (N,): the point seen in row ``rows_key_px`` of the key frame and
+    ``rows_current_px`` of the current frame (N,), frames of ``frame_rows`` rows read out over ``readout_s`` seconds,
+    ``span_s`` seconds apart (first row to first row). All ones for a global shutter (``readout_s`` 0)."""
+    return 1.0 + (np.asarray(rows_current_px, np.float64) - rows_key_px) * (readout_s / (frame_rows * span_s))
