@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from flowvo.camera import Camera, CameraIntrinsics
+from flowvo.cli import main
 from flowvo.odometry.road_length import RoadLength
 from flowvo.odometry.rolling_shutter import baseline_shares
 from flowvo.odometry.two_view import EssentialMotion
@@ -64,3 +65,16 @@ def test_a_cameras_readout_time_is_kept_through_scaling_and_recorded():
     assert camera.scaled(0.5, 0.5).readout_ms == 30.0
     assert camera.record()["readout_ms"] == 30.0
     assert Camera(CameraIntrinsics(700.0, 700.0, 600.0, 180.0)).record()["readout_ms"] == 0.0
+
+
+def test_a_readout_longer_than_the_frame_interval_is_refused_in_one_line(real_clips, tmp_path, capsys):
+    """Real clip 06 runs at 10 Hz: a readout of 150 ms cannot be; 100 ms (the whole interval) can."""
+    out = tmp_path / "run"
+    code = main(["-q", "run", "--data", str(real_clips), "--sequence", "06", "--max-frames", "3", "--readout-ms", "150",
+                 "--out", str(out)])
+    error = capsys.readouterr().err.strip().splitlines()
+    assert code != 0 and len(error) == 1
+    assert "--readout-ms 150: longer than the 103.6 ms between the first two frames" in error[0]
+    assert not (out / "06.txt").exists()
+    assert main(["-q", "run", "--data", str(real_clips), "--sequence", "06", "--max-frames", "3", "--readout-ms",
+                 "100", "--out", str(out)]) == 0

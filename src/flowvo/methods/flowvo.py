@@ -45,7 +45,7 @@ from flowvo.odometry.road_scale import (
     road_flow_within_reach,
     road_room,
 )
-from flowvo.odometry.rolling_shutter import baseline_shares
+from flowvo.odometry.rolling_shutter import baseline_shares, check_readout_within
 from flowvo.odometry.scale_propagation import MIN_PARALLAX_PX, LengthRatio, step_length_ratio
 from flowvo.odometry.scale_window import ScaleWindow, StepRecord, StepScale
 from flowvo.odometry.speed_prior import SpeedPrior
@@ -184,6 +184,7 @@ class FlowGeometryStep(WorkingFrames):
         self._last_step: tuple[EssentialMotion, np.ndarray, np.ndarray] | None = None
         self._step_scale: StepScale | None = None  # the last step, for the window stage
         self._previous: GeometryFrame | None = None
+        self._readout_checked = False  # against the first two frames' interval
         # read only, for live views (flowvo.api.rerun): (time_s, flow, fit, trusted road plane) of the last step
         self.last_view: tuple[float, GeometryFlow, EssentialMotion | None, RoadPlane | None] | None = None
 
@@ -289,6 +290,9 @@ class FlowGeometryStep(WorkingFrames):
         essential fit and its checks, the road plane and the next step's road key frame, the network where no
         road was seen for a while, the speed prior, and what the window needs of the step."""
         time_s, dt_s = times_s[1], times_s[1] - times_s[0]
+        if not self._readout_checked:
+            check_readout_within(self.camera.readout_ms, dt_s)
+            self._readout_checked = True
         self.last_view = (time_s, flow, None, None)
         self._keep_landmarks(times_s[0], previous, time_s, flow.current)
         last_step, self._last_step, self._step_scale = self._last_step, None, None

@@ -20,6 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from flowvo.errors import FlowvoError
+
+INTERVAL_TOLERANCE = 0.05  # the first two frames' timestamps may fall this share short of the frame interval (jitter)
+
 
 def baseline_shares(rows_key_px: np.ndarray, rows_current_px: np.ndarray, frame_rows: int, readout_s: float,
                     span_s: float) -> np.ndarray:
@@ -27,3 +31,11 @@ def baseline_shares(rows_key_px: np.ndarray, rows_current_px: np.ndarray, frame_
     ``rows_current_px`` of the current frame (N,), frames of ``frame_rows`` rows read out over ``readout_s`` seconds,
     ``span_s`` seconds apart (first row to first row). All ones for a global shutter (``readout_s`` 0)."""
     return 1.0 + (np.asarray(rows_current_px, np.float64) - rows_key_px) * (readout_s / (frame_rows * span_s))
+
+
+def check_readout_within(readout_ms: float, interval_s: float) -> None:
+    """Refuse a readout time (milliseconds) longer than the first two frames' ``interval_s`` (seconds): a rolling
+    shutter reads a frame out within the frame interval (one line, naming ``--readout-ms``)."""
+    if readout_ms / 1000.0 > interval_s * (1.0 + INTERVAL_TOLERANCE):
+        raise FlowvoError(f"--readout-ms {readout_ms:g}: longer than the {interval_s * 1000.0:.1f} ms between the "
+                          "first two frames; a rolling shutter reads a frame out within the frame interval")
