@@ -4,14 +4,15 @@ A rolling shutter exposes a frame's rows one after another, top to bottom, over 
 in row ``r1`` of a road key frame and in row ``r2`` of the current frame (of ``R`` rows) was therefore seen
 ``(r2 - r1) / R * readout`` later or earlier than the frames' own interval says. The near road moves down the frame
 between two frames, so it is seen over a longer baseline than the frames' interval: with the interval's, its
-triangulated depth comes out short by that share, the road plane nearer and every length long (a synthetic drive at
-10 Hz read 30 ms a frame: path +2.7 %, t_err 2.84 % against 0.45 % for a global shutter).
+triangulated depth comes out short by that share, the road plane nearer and every length long (KITTI's synthetic camera
+read out over 30 ms at 10 Hz, seeds 3-6: paths +2.3 to +3.8 %, t_err 2.98 %; with each point's baseline 0.47 %, its
+global shutter 0.39 %).
 
 At a constant velocity over the span, a point triangulated from two camera centres a baseline ``b`` apart lies at
 ``b`` over the assumed baseline times its triangulated distance from the first centre. The first centre itself lies
 ``r1 / R * readout`` of the motion past the key frame's: along the direction of travel, which moves a point along the
-road's plane and leaves the plane's distance as it is. Rotation within the readout is left out (a few thousandths of
-a degree a row at a car's yaw rates).
+road's plane and leaves the plane's distance as it is. Rotation within the readout is left out (a car turning at 10
+degrees a second turns 0.3 degrees within a 30 ms readout).
 
 Rows of the frames as they come (a lens's distortion not undone: the sensor's rows); times in seconds.
 """
