@@ -54,21 +54,28 @@ class SynthSpec:
     frames: int | None = None
     ground_texture_scale: float = 1.0
 
+    @property
+    def frame_count(self) -> int:
+        """How many frames are rendered, at the camera's frame rate."""
+        return self.frames or frames_spanning(len(self.T_world_cam), PATH_RATE_HZ, self.camera.fps)
+
     def frame_poses(self) -> np.ndarray:
         """Camera-to-world poses (F, 4, 4) of the rendered frames, at the camera's frame rate; the drive's
         poses are a level camera's, the rendered camera is pitched and rolled on it by its mounting."""
-        frames = self.frames or frames_spanning(len(self.T_world_cam), PATH_RATE_HZ, self.camera.fps)
-        level = resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, frames)
-        return level if not (self.camera.pitch_deg or self.camera.roll_deg) else level @ self.camera.mounting()
+        return self._mounted(resample_poses(self.T_world_cam, PATH_RATE_HZ, self.camera.fps, self.frame_count))
 
     def band_poses(self, time_shares: np.ndarray) -> np.ndarray:
         """Camera-to-world poses (F, B, 4, 4) of a rolling shutter's row bands: frame ``i``'s band ``b`` at
         ``i / fps + time_shares[b] * readout`` (seconds; :func:`flowvo.synth.render.row_bands`), mounted as
         :meth:`frame_poses`."""
-        frames = len(self.frame_poses())
+        frames = self.frame_count
         times_s = np.arange(frames)[:, None] / self.camera.fps + np.asarray(time_shares)[None] * \
             self.camera.readout_ms / 1000.0
         level = poses_at(self.T_world_cam, PATH_RATE_HZ, times_s.ravel()).reshape(frames, len(time_shares), 4, 4)
+        return self._mounted(level)
+
+    def _mounted(self, level: np.ndarray) -> np.ndarray:
+        """Level camera poses (..., 4, 4) with the camera pitched and rolled on them by its mounting."""
         return level if not (self.camera.pitch_deg or self.camera.roll_deg) else level @ self.camera.mounting()
 
 
@@ -168,11 +175,10 @@ def write_sequence(root: str | Path, name: str, spec: SynthSpec, workers: int | 
         **({} if spec.ground_texture_scale == 1.0 else {"ground_texture_scale": spec.ground_texture_scale}),
     })
     world = build_world(spec.T_world_cam, spec.seed, spec.scene, camera.height_m)
-    rays: PixelRays | list[RowBand] = pixel_rays(K, size, camera.distortion)
-    render_poses = poses  # each frame's, or for a rolling shutter each of its row bands'
-    if camera.readout_ms:
-        rays = row_bands(K, size, camera.distortion)
-        render_poses = spec.band_poses(np.array([band.time_share for band in rays]))
+    rays: PixelRays | list[RowBand] = row_bands(K, size, camera.distortion) if camera.readout_ms else \
+        pixel_rays(K, size, camera.distortion)
+    render_poses = poses if isinstance(rays, PixelRays) else \
+        spec.band_poses(np.array([band.time_share for band in rays]))  # each frame's, or each of its row bands'
     bonnet = make_bonnet(size, camera.bonnet_rows, K, spec.seed) if camera.bonnet_rows else None
     todo = [i for i in range(len(poses)) if not (image_dir / f"{i:06d}.png").exists()]
     if spec.gt_flow:
