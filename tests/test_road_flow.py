@@ -19,7 +19,7 @@ from flowvo.camera import (
 from flowvo.geometry import so3_exp
 from flowvo.odometry.road_flow import RoadFlow
 from flowvo.odometry.road_plane import RoadPlane
-from flowvo.odometry.road_scale import GRID_MARGIN_PX, horizon_below_px, road_homography
+from flowvo.odometry.road_scale import GRID_MARGIN_PX, horizon_below_px, road_homography, road_top_shift_px
 from flowvo.odometry.two_view import EssentialMotion
 
 HW = (188, 620)
@@ -118,24 +118,52 @@ def test_road_points_that_leave_the_frame_are_dropped():
 @pytest.mark.parametrize("pitch_deg", [-5.0, 0.0, 8.0])
 def test_the_road_grid_and_crop_start_below_the_horizon_of_a_camera_pitched_up(pitch_deg):
     """A camera pitched 5 degrees up has its horizon fy tan(5 deg) below the principal point: the grid's and the
-    crop's top rows move down by that; level and pitched-down cameras keep theirs (their horizon is higher). A still
-    layer over the road is judged from the level camera's top all the same (a reflection's dots lie there)."""
+    crop's top rows move down until the grid's top is 0.05 frame heights below it; level and pitched-down cameras keep
+    theirs (their horizon is higher). A still layer over the road is judged from the level camera's top all the same
+    (a reflection's dots lie there)."""
     K = np.array([[359.0, 0.0, 310.0], [0.0, 359.0, 94.0], [0.0, 0.0, 1.0]])
     intrinsics = CameraIntrinsics(359.0, 359.0, 310.0, 94.0)
     level = RoadFlow(Camera(intrinsics), (188, 620), "dis-road")
     road = RoadFlow(Camera(intrinsics, pitch_deg=pitch_deg), (188, 620), "dis-road")
-    below = 359.0 * np.tan(np.radians(5.0)) if pitch_deg < 0 else 0.0
-    assert horizon_below_px(K, pitch_deg) == pytest.approx(below, abs=1e-9)
+    horizon = 359.0 * np.tan(np.radians(5.0)) if pitch_deg < 0 else 0.0
+    assert horizon_below_px(K, pitch_deg) == pytest.approx(horizon, abs=1e-9)
+    below = max(0.0, horizon - 0.05 * 188)  # 22.0 px for the camera pitched up
+    if pitch_deg < 0:  # the grid's top row lies 0.05 frame heights under the horizon, to the pixel
+        assert abs(road.grid_px[:, 1].min() - (94.0 + horizon + 0.05 * 188)) < 1.0
     assert road.grid_px[:, 1].min() == int(94.0 + below + 0.10 * 188)
     assert road.crop[0].start == int(94.0 + below + 0.05 * 188)
-    assert road.grid_px[:, 1].max() == level.grid_px[:, 1].max() and road.crop[0].stop == level.crop[0].stop
+    assert 0 <= level.grid_px[:, 1].max() - road.grid_px[:, 1].max() < GRID_MARGIN_PX  # the grid's step from its top
+    assert road.crop[0].stop == level.crop[0].stop
     assert road.from_level_top() == (slice(int(94.0 + 0.05 * 188), road.crop[0].stop), road.crop[1])
     # its still points are judged in the grid's near half (a camera pitched up has a shorter grid)
     assert road.still.first_row == pytest.approx(94.0 + (below + 0.55 * 188) / 2, abs=1e-9)
     placed = RoadFlow(Camera(intrinsics), (188, 620), "dis-road")  # a level camera whose pitch the drive says
-    assert placed.place(pitch_deg) and placed.horizon_below_px == pytest.approx(below, abs=1e-9)
+    assert placed.place(pitch_deg) and placed.top_shift_px == pytest.approx(below, abs=1e-9)
     np.testing.assert_array_equal(placed.grid_px, road.grid_px)
     assert (placed.crop, placed.crop_hw, placed.still.first_row) == (road.crop, road.crop_hw, road.still.first_row)
+
+
+@pytest.mark.parametrize(("horizon_px", "shift_px"), [(0.0, 0.0), (9.0, 0.0), (10.0, 0.0), (10.5, 0.5), (31.4, 21.4)])
+def test_the_road_grid_moves_down_only_as_far_as_keeps_its_top_below_the_horizon(horizon_px, shift_px):
+    """Frames 200 px high: a level camera's grid starts 20 px under the principal point, and it stays there while the
+    horizon is 10 px (0.05 frame heights) or more above it (a camera pitched up 1.8 degrees, as the real dash-cam);
+    below that it moves down with the horizon."""
+    assert road_top_shift_px(horizon_px, 200) == pytest.approx(shift_px, abs=1e-12)
+
+
+def test_a_camera_pitched_up_a_little_keeps_the_level_cameras_road_grid():
+    """The real dash-cam's calibration at 620 px: pitched 1.5 degrees up, its road grid and crop are the level
+    camera's; at its own pitch, 1.8 degrees up (the horizon 0.05 frame heights under the principal point), they move
+    down by a fraction of a pixel (before, by 17.6 px: they lost their farthest rows above its bonnet, and the run told
+    its pitch read 7 % faster than run level)."""
+    intrinsics = CameraIntrinsics(561.0, 559.0, 324.0, 188.0)
+    level = RoadFlow(Camera(intrinsics), (349, 620), "dis-road")
+    told = RoadFlow(Camera(intrinsics, pitch_deg=-1.5), (349, 620), "dis-road")
+    assert 0.0 < horizon_below_px(intrinsics.K, -1.5) < 0.05 * 349
+    np.testing.assert_array_equal(told.grid_px, level.grid_px)
+    assert told.crop == level.crop and told.top_shift_px == 0.0
+    at_its_pitch = RoadFlow(Camera(intrinsics, pitch_deg=-1.8), (349, 620), "dis-road")
+    assert 17.0 < horizon_below_px(intrinsics.K, -1.8) and 0.0 < at_its_pitch.top_shift_px < 0.5
 
 
 @pytest.mark.parametrize(("pitch_deg", "roll_deg"), [(0.0, 6.0), (0.0, -6.0), (-2.0, 4.0), (3.0, -7.0)])
@@ -153,9 +181,10 @@ def test_a_rolled_camera_has_its_road_crop_start_below_the_lowest_point_of_its_s
     if pitch_deg == 0.0:
         assert below == pytest.approx(half_width_px * np.tan(np.radians(abs(roll_deg))), rel=1e-12)
     road = RoadFlow(Camera(INTRINSICS), HW, "dis-road")
-    assert road.place(pitch_deg, roll_deg) and road.horizon_below_px == pytest.approx(below, abs=1e-9)
-    assert road.crop[0].start == int(K[1, 2] + below + 0.05 * HW[0])
-    assert road.grid_px[:, 1].min() == int(K[1, 2] + below + 0.10 * HW[0])
+    shift = max(0.0, below - 0.05 * HW[0])  # the grid's top 0.05 frame heights under the horizon's lowest point
+    assert road.place(pitch_deg, roll_deg) and road.top_shift_px == pytest.approx(shift, abs=1e-9)
+    assert road.crop[0].start == int(K[1, 2] + shift + 0.05 * HW[0])
+    assert road.grid_px[:, 1].min() == int(K[1, 2] + shift + 0.10 * HW[0])
 
 
 def test_a_road_crop_placed_too_small_for_the_flow_is_not_placed():
@@ -164,7 +193,7 @@ def test_a_road_crop_placed_too_small_for_the_flow_is_not_placed():
     grid, crop = road.grid_px.copy(), road.crop
     assert not road.place(-25.0, min_side_px=32)
     np.testing.assert_array_equal(road.grid_px, grid)
-    assert road.crop == crop and road.horizon_below_px == 0.0
+    assert road.crop == crop and road.top_shift_px == 0.0
 
 
 def test_a_view_that_ends_above_a_bonnet_keeps_its_paint_out_of_the_road_flow():

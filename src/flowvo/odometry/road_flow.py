@@ -22,6 +22,7 @@ from flowvo.odometry.road_scale import (
     road_crop,
     road_grid,
     road_points_in_view,
+    road_top_shift_px,
 )
 from flowvo.odometry.still_regions import StillRegions
 from flowvo.odometry.two_view import follow_flow
@@ -47,28 +48,30 @@ class RoadFlow:
         self.min_side_px = min_side_px  # the flow's field must keep this many pixels a side (a view cut short by a
         # bonnet keeps the whole crop otherwise)
         self.estimator = create_estimator(flow_method)
-        self.horizon_below_px: float | None = None  # how far below the principal point the crop and grid start
+        self.top_shift_px: float | None = None  # how far below a level camera's the crop and grid start
         self.place(camera.pitch_deg, camera.roll_deg)
 
     def place(self, pitch_deg: float, roll_deg: float = 0.0, min_side_px: int = 0) -> bool:
         """Place the crop and grid for a camera pitched ``pitch_deg`` down and rolled ``roll_deg`` (degrees; its
-        mounting taken from the drive places them again) below the horizon's lowest point across the crop
-        (:func:`flowvo.odometry.road_scale.horizon_below_px`), their still cells judged afresh where they move; False,
+        mounting taken from the drive places them again) where a level camera has them, or as far below that as keeps
+        the grid's top below the horizon's lowest point across the crop
+        (:func:`flowvo.odometry.road_scale.road_top_shift_px`), their still cells judged afresh where they move; False,
         and nothing moved, where the crop's smaller side would come out under ``min_side_px``."""
-        below_px = horizon_below_px(self.K, pitch_deg, roll_deg, ROAD_CROP_HALF_WIDTH * self.working_hw[1])
-        if below_px == self.horizon_below_px:
+        horizon_px = horizon_below_px(self.K, pitch_deg, roll_deg, ROAD_CROP_HALF_WIDTH * self.working_hw[1])
+        shift_px = road_top_shift_px(horizon_px, self.working_hw[0])
+        if shift_px == self.top_shift_px:
             return True
-        crop = road_crop(self.working_hw, self.K, horizon_below_px=below_px)
+        crop = road_crop(self.working_hw, self.K, top_shift_px=shift_px)
         crop_hw = (crop[0].stop - crop[0].start, crop[1].stop - crop[1].start)
         if min(crop_hw) < min_side_px:
             return False
-        self.crop, self.crop_hw, self.horizon_below_px = crop, crop_hw, below_px
-        self.grid_px = road_grid(self.working_hw, self.K, horizon_below_px=below_px)
+        self.crop, self.crop_hw, self.top_shift_px = crop, crop_hw, shift_px
+        self.grid_px = road_grid(self.working_hw, self.K, top_shift_px=shift_px)
         self.grid_undistorted_px = self.undistort(self.grid_px)
         self.crop_origin = np.array([self.crop[1].start, self.crop[0].start], dtype=np.float32)
         self._crop_to_frame = np.array([[1.0, 0.0, self.crop_origin[0]], [0.0, 1.0, self.crop_origin[1]],
                                         [0.0, 0.0, 1.0]])
-        middle_row = self.K[1, 2] + (below_px + self.working_hw[0] * sum(ROAD_ROWS)) / 2
+        middle_row = self.K[1, 2] + (shift_px + self.working_hw[0] * sum(ROAD_ROWS)) / 2
         self.still = StillRegions(self.working_hw, middle_row, self.scale, cell_px=GRID_MARGIN_PX)  # a cell per grid
         # point: a bonnet's edge cuts through cells; judged from the grid's middle row down (a camera pitched up: 21
         # far points were taken for still)
@@ -94,9 +97,10 @@ class RoadFlow:
         return self._views[bottom_px]
 
     def from_level_top(self) -> tuple[slice, slice]:
-        """The crop (rows, columns) with its top no lower than a camera mounted level has it: one told it looks up has
-        its crop start below its horizon, and a still layer over the road (:mod:`flowvo.odometry.static_layer`) is
-        judged over the rows between too (the real dash-cam told -1.8 degrees: its reflection's dots lie there)."""
+        """The crop (rows, columns) with its top no lower than a camera mounted level has it: one told it looks up far
+        enough has its crop start lower (:meth:`place`), and a still layer over the road
+        (:mod:`flowvo.odometry.static_layer`) is judged over the rows between too (a windshield reflection's dots lay
+        there on the real dash-cam, when a pitch told 1.8 degrees up still moved its crop down 17 px)."""
         level_top = road_crop(self.working_hw, self.K)[0].start
         return slice(min(level_top, self.crop[0].start), self.crop[0].stop), self.crop[1]
 
