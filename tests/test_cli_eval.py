@@ -5,7 +5,7 @@ import pytest
 from swaying_drive import swaying_drive
 
 from flowvo.cli import build_parser, main
-from flowvo.cli.run import _bowl_warning, _mounting_note, _unscaled_warning, _view_notes
+from flowvo.cli.run import _bowl_warning, _mounting_note, _pitch_words, _unscaled_warning, _view_notes
 from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp
 from flowvo.metrics.error_split import turn_rotation, with_direction_turned
 
@@ -134,6 +134,11 @@ def test_a_run_whose_steps_mostly_lack_a_scale_warns_and_names_the_step_records(
     assert _unscaled_warning({"steps": None}, "OUT") is None  # a method without a window
 
 
+def test_a_pitch_is_said_in_words_down_or_up():
+    assert _pitch_words(8.3) == "pitched 8.3 deg down" and _pitch_words(-1.8) == "pitched 1.8 deg up"
+    assert _pitch_words(-2.14, 1) == "pitched 2.1 deg up"
+
+
 def test_the_mounting_note_names_what_was_taken_and_advises_what_differs_from_what_was_given():
     def planes(pitches, rolls):
         return {"pitches_taken_deg": pitches, "rolls_taken_deg": rolls, "refused_as_tilted": 21}
@@ -145,7 +150,7 @@ def test_the_mounting_note_names_what_was_taken_and_advises_what_differs_from_wh
     assert "rolled 5.3 deg (right side down)" in rolled and "--camera-roll 5.3 measures" in rolled
     assert "--camera-pitch" not in rolled and "pitched" not in rolled and "21 refused as tilted" in rolled
     both = _mounting_note(planes([8.0, -2.1], [6.0, 4.4]), 0.0, 6.0)  # the last take counts
-    assert "pitched -2.1 deg down, rolled 4.4 deg" in both and "--camera-pitch -2.1 --camera-roll 4.4 measures" in both
+    assert "pitched 2.1 deg up, rolled 4.4 deg" in both and "--camera-pitch -2.1 --camera-roll 4.4 measures" in both
     given_back = _mounting_note(planes([-2.1], [4.4]), -2.1, 4.4)  # taken as given: nothing to advise
     assert "as given" in given_back and "--camera" not in given_back
 

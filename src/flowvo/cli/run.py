@@ -124,6 +124,13 @@ def _view_notes(summary: dict) -> list[str]:
     return notes
 
 
+def _pitch_words(pitch_deg: float, places: int | None = None) -> str:
+    """A pitch (degrees, down positive) in words: "pitched 1.8 deg up" (``places`` decimals; None: as short as it
+    goes)."""
+    size = f"{abs(pitch_deg):g}" if places is None else f"{abs(pitch_deg):.{places}f}"
+    return f"pitched {size} deg {'down' if pitch_deg > 0 else 'up'}"
+
+
 def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) -> str | None:
     """The note on a mounting taken from the drive (``run.json``'s ``road_planes``), or None when none was: the
     pitch and roll taken and, where they differ from the ones given, the options that give them from the first
@@ -132,7 +139,7 @@ def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) 
         return None
     pitch_deg, roll_deg = planes["pitches_taken_deg"][-1], planes["rolls_taken_deg"][-1]
     pitch_changed, roll_changed = bool(round(pitch_deg - given_pitch_deg, 1)), bool(round(roll_deg - given_roll_deg, 1))
-    taken = ([f"pitched {pitch_deg:.1f} deg down"] if pitch_changed else []) + \
+    taken = ([_pitch_words(pitch_deg, 1)] if pitch_changed else []) + \
         ([f"rolled {roll_deg:.1f} deg (right side down)"] if roll_changed else [])
     options = ([f"--camera-pitch {pitch_deg:.1f}"] if pitch_changed else []) + \
         ([f"--camera-roll {roll_deg:.1f}"] if roll_changed else [])
@@ -150,7 +157,7 @@ def _camera_line(summary: dict) -> str:
     if not camera["camera_height_given"]:
         height += " (KITTI's)" if camera["source"] == "kitti" else \
             " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
-    pitch = f", pitched {camera['camera_pitch_deg']:g} deg down" if camera["camera_pitch_deg"] else ""
+    pitch = f", {_pitch_words(camera['camera_pitch_deg'])}" if camera["camera_pitch_deg"] else ""
     pitch += f", rolled {camera['camera_roll_deg']:g} deg (right side down)" if camera["camera_roll_deg"] else ""
     pitch += f", rolling shutter read out over {camera['readout_ms']:g} ms" if camera.get("readout_ms") else ""
     scaled = "" if "scaled_from_image_size" not in camera else \
