@@ -39,8 +39,8 @@ class RoadFlow:
     resolution), and the dense flow (``flow_method``) that moves the grid from one frame to another; grid points in
     cells that stand still while the road moves (a bonnet) are left out (:mod:`flowvo.odometry.still_regions`:
     judged in the grid's near half, where the road moves more than its median; ``scale``: working width over the
-    reference width). The crop and grid start below the horizon of a camera pitched up or rolled
-    (:meth:`place`)."""
+    reference width). The crop and grid start lower for a camera pitched up or rolled so far that its horizon comes
+    near the grid's top (:meth:`place`)."""
 
     def __init__(self, camera: Camera, working_hw: tuple[int, int], flow_method: str, scale: float = 1.0,
                  min_side_px: int = 0) -> None:
@@ -54,7 +54,7 @@ class RoadFlow:
     def place(self, pitch_deg: float, roll_deg: float = 0.0, min_side_px: int = 0) -> bool:
         """Place the crop and grid for a camera pitched ``pitch_deg`` down and rolled ``roll_deg`` (degrees; its
         mounting taken from the drive places them again) where a level camera has them, or as far below that as keeps
-        the grid's top below the horizon's lowest point across the crop
+        the grid's top ``HORIZON_MARGIN`` of the frame's height under the horizon's lowest point across the crop
         (:func:`flowvo.odometry.road_scale.road_top_shift_px`), their still cells judged afresh where they move; False,
         and nothing moved, where the crop's smaller side would come out under ``min_side_px``."""
         horizon_px = horizon_below_px(self.K, pitch_deg, roll_deg, ROAD_CROP_HALF_WIDTH * self.working_hw[1])
