@@ -328,8 +328,8 @@ class FlowGeometryStep(WorkingFrames):
             self.camera.readout_ms / 1000.0, time_s - span.start_s)
         plane, road_m = self.road_length.measure((flow.road_prev, flow.road_next), key_fit, road_measured, shares)
         mounting_taken = len(self.road_length.pitches_taken_deg) > taken
-        if mounting_taken:  # the drive's mounting: the car's axes turn with it, and
-            # a camera found to look up, or rolled, has its road crop and grid moved below its horizon
+        if mounting_taken:  # the drive's mounting: the car's axes turn with it, and a camera found to look up, or
+            # rolled, has its road crop and grid moved down where its horizon comes near them (RoadFlow.place)
             self.checks.turn_car_axes(self.road_length.levelling.T)
             self.road.place(self.road_length.pitch_deg, self.road_length.roll_deg, MIN_FLOW_SIDE_PX)
         road_share_m = None if road_m is None else road_m / span.steps  # this step's share, by the count of steps
