@@ -95,6 +95,21 @@ def test_the_road_ahead_is_rendered_at_its_depth_on_a_climb_and_a_descent(grade)
     np.testing.assert_allclose(depth[road, column], 1.65 / yn[road], rtol=0.002)
 
 
+@pytest.mark.parametrize("grade", [-0.08, 0.08])
+def test_the_road_goes_on_at_its_grade_beyond_the_end_of_the_drive(grade):
+    """The last camera of a drive on a constant grade sees the road ahead at its depth, though the drive ends there.
+    The world's road had been held level beyond the drive's end, and hills rose from 12 m past it: 32 % nearer at
+    38 m even on level ground."""
+    poses = _straight_grade(grade, frames=30)
+    world = build_world(poses, 3)
+    K, size = intrinsics(0.5)
+    _, depth = render(world, make_textures(3), poses[-1], pixel_rays(K, size))
+    column = int(round(K[0, 2]))
+    yn = (np.arange(size[0]) - K[1, 2]) / K[1, 1]
+    road = (yn > 1.65 / 40.0) & (yn < 1.65 / 5.0)  # 5-40 m ahead, all of it beyond the drive's last pose
+    np.testing.assert_allclose(depth[road, column], 1.65 / yn[road], rtol=0.002)
+
+
 def test_true_flow_warps_next_frame_onto_current(synthetic_root):
     sequence = KittiSequence(synthetic_root, "00")
     for index in (4, 12, 18):
