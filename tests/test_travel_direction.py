@@ -1,11 +1,13 @@
-"""A fast car's direction of travel: a fitted direction further off the camera's forward axis than a car at
-speed can travel is refused for the last one taken at speed; a slow car's is never checked."""
+"""A car's direction of travel: a fitted direction further off the camera's forward axis than a car at speed can
+travel is refused for the last one taken at speed (a slow car's is not checked for that); one against the step's
+turn is refused at any speed for the last one taken."""
 
 import numpy as np
 
 from flowvo.odometry.travel_direction import TravelDirection
 
 FORWARD = np.array([0.0, 0.0, 1.0])
+RIGHT = np.array([1.0, 0.0, 0.0])
 
 
 def heading(deg: float) -> np.ndarray:
@@ -15,7 +17,7 @@ def heading(deg: float) -> np.ndarray:
 
 
 def test_at_speed_a_direction_within_the_limit_is_taken_one_beyond_gives_way_to_the_last_taken():
-    travel = TravelDirection(FORWARD, max_angle_deg=20.0, min_speed_mps=6.0)
+    travel = TravelDirection(FORWARD, RIGHT, max_angle_deg=20.0, min_speed_mps=6.0)
     turned = heading(15.0)
     assert travel.checked(turned, speed_mps=12.0) is turned
     for wrong in (heading(25.0), -heading(0.0), heading(-90.0)):  # sideways or backwards at 12 m/s
@@ -24,16 +26,36 @@ def test_at_speed_a_direction_within_the_limit_is_taken_one_beyond_gives_way_to_
 
 
 def test_before_any_direction_at_speed_the_forward_axis_stands_in():
-    travel = TravelDirection(heading(3.0), max_angle_deg=20.0, min_speed_mps=6.0)  # a camera mounted 3 deg off
+    travel = TravelDirection(heading(3.0), heading(93.0), max_angle_deg=20.0, min_speed_mps=6.0)  # mounted 3 deg off
     np.testing.assert_allclose(travel.checked(-heading(3.0), speed_mps=8.0), heading(3.0))
     kept = heading(22.0)  # within 20 degrees of that forward axis, 22 of straight ahead
     assert travel.checked(kept, speed_mps=8.0) is kept
 
 
-def test_a_slow_car_or_one_of_unknown_speed_takes_every_direction_and_does_not_set_the_last():
-    travel = TravelDirection(FORWARD, max_angle_deg=20.0, min_speed_mps=6.0)
+def test_a_slow_car_or_one_of_unknown_speed_takes_every_direction_and_does_not_set_the_last_at_speed():
+    travel = TravelDirection(FORWARD, RIGHT, max_angle_deg=20.0, min_speed_mps=6.0)
     swing, backwards = heading(60.0), -heading(0.0)  # a turning camera at walking pace; reversing
     assert travel.checked(swing, speed_mps=2.0) is swing
     assert travel.checked(backwards, speed_mps=None) is backwards
     assert travel.kept_steps == 0
     np.testing.assert_array_equal(travel.checked(heading(90.0), speed_mps=6.0), FORWARD)  # not the slow ones
+
+
+def test_a_direction_against_the_turn_gives_way_to_the_last_one_taken_at_any_speed():
+    """Turning right, a camera ahead of the rear axle travels to the right of its axis: a fit 25 degrees to the left
+    (a yaw too large traded against a sideways direction) is refused for the last direction taken, slow or fast;
+    one 8 degrees to the left (within the 10 degree margin), or any direction of a step turning under 0.3 degrees,
+    is taken."""
+    travel = TravelDirection(FORWARD, RIGHT)
+    right_turn, left_turn = np.radians(1.5), np.radians(-1.5)
+    into_the_turn = heading(4.0)
+    assert travel.checked(into_the_turn, speed_mps=2.5, yaw_rad=right_turn) is into_the_turn
+    assert travel.checked(heading(-25.0), speed_mps=2.5, yaw_rad=right_turn) is into_the_turn
+    assert travel.checked(heading(25.0), speed_mps=2.5, yaw_rad=left_turn) is into_the_turn
+    assert travel.checked(heading(-15.0), speed_mps=12.0, yaw_rad=right_turn) is into_the_turn  # also at speed
+    assert travel.against_turn_steps == 3 and travel.kept_steps == 0
+    slightly_against = heading(-8.0)
+    assert travel.checked(slightly_against, speed_mps=2.5, yaw_rad=right_turn) is slightly_against
+    barely_turning = heading(-25.0)
+    assert travel.checked(barely_turning, speed_mps=2.5, yaw_rad=np.radians(0.2)) is barely_turning
+    assert travel.against_turn_steps == 3

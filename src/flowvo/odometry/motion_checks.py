@@ -1,7 +1,7 @@
 """A step's motion up to scale, checked against what a car can do: its rotation measured from the rotation key
 frame where there is one (:mod:`flowvo.odometry.rotation_key`), a yaw rate that jumped refused below 6 m/s
-(:mod:`flowvo.odometry.yaw_rate`), a direction of travel too far off the car's axis refused at speed
-(:mod:`flowvo.odometry.travel_direction`).
+(:mod:`flowvo.odometry.yaw_rate`), a direction of travel against the step's turn refused, and one too far off the
+car's axis refused at speed (:mod:`flowvo.odometry.travel_direction`).
 
 Tracks are undistorted working pixels (N, 2); rotations ``R_next_prev``; times in seconds; speeds in m/s.
 """
@@ -31,7 +31,7 @@ class MotionChecks(Generic[Frame]):
 
     def __init__(self, K: np.ndarray, car_axes: np.ndarray, threshold_px: float) -> None:
         self.K, self.threshold_px = K, threshold_px
-        self.travel = TravelDirection(car_axes[:, 2])  # along the road
+        self.travel = TravelDirection(car_axes[:, 2], car_axes[:, 0])  # along the road
         self.yaw_rate = YawRateCheck(car_axes[:, 1])  # yaw turns about the car's vertical axis
         self.rotation_key: RotationKeyFrame[Frame] = RotationKeyFrame()
         self.rotation_key_steps = 0  # steps whose rotation was measured from an earlier key frame
@@ -39,6 +39,7 @@ class MotionChecks(Generic[Frame]):
     def turn_car_axes(self, car_axes: np.ndarray) -> None:
         """The car's axes are now the columns of ``car_axes`` (the camera's pitch was taken from the drive)."""
         self.travel.forward = car_axes[:, 2] / np.linalg.norm(car_axes[:, 2])
+        self.travel.right = car_axes[:, 0] / np.linalg.norm(car_axes[:, 0])
         self.yaw_rate.up = car_axes[:, 1] / np.linalg.norm(car_axes[:, 1])
 
     def forget(self) -> None:
@@ -84,12 +85,13 @@ class MotionChecks(Generic[Frame]):
 
     def _travel_checked(self, fit: EssentialMotion, tracks: tuple[np.ndarray, np.ndarray],
                         last_speed_mps: float | None) -> EssentialMotion:
-        """The fit, or, where its direction of travel lies further off the forward axis than a fast car's can,
-        the motion along the last direction taken at speed with its rotation fitted again to the tracks
-        (:func:`motion_along`: the fit's rotation came with its wrong direction; kept where no rotation along
-        that direction explains 30 tracks)."""
+        """The fit, or, where its direction of travel lies against its turn or further off the forward axis than a
+        fast car's can (:class:`TravelDirection`), the motion along the direction taken instead with its rotation
+        fitted again to the tracks (:func:`motion_along`: the fit's rotation came with its wrong direction; kept
+        where no rotation along that direction explains 30 tracks)."""
         direction = -fit.R.T @ fit.t_dir  # of travel, in the first frame of the step
-        taken = self.travel.checked(direction, last_speed_mps)
+        yaw_rad = -float(so3_log(fit.R) @ self.yaw_rate.up)  # positive to the right: R is R_next_prev
+        taken = self.travel.checked(direction, last_speed_mps, yaw_rad)
         if taken is direction:
             return fit
         along = motion_along(tracks[0], tracks[1], self.K, taken, fit.R, self.threshold_px)
@@ -105,5 +107,7 @@ class MotionChecks(Generic[Frame]):
 
     def summary(self) -> dict:
         """How many steps each check changed."""
-        return {"direction_kept_steps": self.travel.kept_steps, "yaw_refused_steps": self.yaw_rate.refused_steps,
+        return {"direction_kept_steps": self.travel.kept_steps,
+                "direction_against_turn_steps": self.travel.against_turn_steps,
+                "yaw_refused_steps": self.yaw_rate.refused_steps,
                 "rotation_key_steps": self.rotation_key_steps}
