@@ -6,7 +6,7 @@ predicted after an unpredicted one found no plane."""
 import numpy as np
 import pytest
 
-from flowvo.odometry.road_key import MAX_ROAD_KEY_S, RoadKeyFrame, RoadSpan
+from flowvo.odometry.road_key import MAX_KEY_PREDICTION_SPEED_MPS, MAX_ROAD_KEY_S, RoadKeyFrame, RoadSpan
 
 K = np.array([[360.0, 0.0, 310.0], [0.0, 360.0, 90.0], [0.0, 0.0, 1.0]])
 HEIGHT_M = 1.65
@@ -51,6 +51,15 @@ def test_without_a_trusted_plane_or_a_road_normal_no_key_frame_slides():
     for k in range(3):
         key.slide(k, k * 0.1, forward(0.7), None, 4.0, PREDICTED)
     assert key.frame is None and key.prediction is None
+
+
+def test_a_refused_plane_slides_the_key_frame_only_for_a_slow_car_whose_road_moved_too_little_for_a_plane():
+    key = RoadKeyFrame(K, 6.0, HEIGHT_M, 12.0)
+    assert key.baseline_parallax_px(9.0, True, 20.0) == 9.0  # a trusted plane's parallax at any speed
+    assert key.baseline_parallax_px(3.0, False, 1.5) == 3.0  # crawling: its road one step at a time gives no plane
+    assert key.baseline_parallax_px(3.0, False, MAX_KEY_PREDICTION_SPEED_MPS) == 0.0  # too fast for a crawl
+    assert key.baseline_parallax_px(6.0, False, 1.5) == 0.0  # the road moved enough: refused for another reason
+    assert key.baseline_parallax_px(3.0, False, None) == 0.0  # no speed known yet
 
 
 def test_a_sliding_key_frame_is_never_older_than_max_road_key_s_at_the_next_frame():

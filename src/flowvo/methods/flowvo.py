@@ -345,7 +345,8 @@ class FlowGeometryStep(WorkingFrames):
         speed_mps = self.speed.update(time_s, None if step_m is None else step_m / dt_s)
         step_m = 0.0 if speed_mps is None else speed_mps * dt_s
         self.last_motion = invert_se3(se3_next_prev(fit.R, fit.t_dir * step_m))
-        near_px = 0.0 if plane is None else self.road_length.near_parallax_px / span.steps
+        near_px = self.road_key.baseline_parallax_px(self.road_length.near_parallax_px / span.steps, plane is not None,
+                                                     self.speed.last_speed_mps)
         # the step's length for the sliding key frame's prediction from the road's share of it where there is one: the
         # warp DIS sees must not depend on the timestamps' last bits (the speed prior's length does: a bag's stamps
         # against times.txt moved a drive's poses by 8e-4)

@@ -6,8 +6,9 @@ found the road plane, the next step's road flow is predicted by that plane under
 velocity), and DIS measures only the residual (:class:`flowvo.odometry.road_flow.RoadFlow`). Where one step
 moves the near road less than ``BASELINE_PX`` beyond the rotation, the next step's road is measured from the
 frame as many steps back as that baseline takes (:meth:`RoadKeyFrame.slide`): a sliding key frame, its flow
-predicted through the steps since. A drive whose road flow is noisy needs a longer baseline, and there a step whose
-unpredicted flow found no road has the next one predicted (:mod:`flowvo.odometry.road_noise`).
+predicted through the steps since; after a refused plane only for a slow car whose road moved too little for one
+(:meth:`RoadKeyFrame.baseline_parallax_px`). A drive whose road flow is noisy needs a longer baseline, and there a step
+whose unpredicted flow found no road has the next one predicted (:mod:`flowvo.odometry.road_noise`).
 
 Times in seconds; pixels of the working frame (thresholds given at :data:`REFERENCE_WIDTH_PX` and scaled);
 homographies on undistorted working pixels; lengths in metres.
@@ -113,15 +114,28 @@ class RoadKeyFrame(Generic[Frame]):
         """No motion was measured (a standstill, a step without a fit): no sliding key frame before the next step."""
         self._recent.clear()
 
+    def baseline_parallax_px(self, near_px: float, trusted: bool, last_speed_mps: float | None) -> float:
+        """The near road's parallax per step (working pixels) :meth:`slide` takes after a step whose road moved its
+        near points ``near_px`` beyond the rotation, its plane ``trusted`` or refused, the car last at
+        ``last_speed_mps`` (the speed prior's units). A refused plane's counts only where the road moved under
+        ``key_road_px`` and the car was slower than ``MAX_KEY_PREDICTION_SPEED_MPS``: a crawling car measuring its road
+        one step at a time (1-4 px) would never find a plane again. Otherwise 0, no sliding key frame: a plane refused
+        at speed is a road that is no plane, not a baseline too short."""
+        if trusted:
+            return near_px
+        slow = last_speed_mps is not None and last_speed_mps < MAX_KEY_PREDICTION_SPEED_MPS
+        return near_px if slow and near_px < self.key_road_px else 0.0
+
     def slide(self, current: Frame, time_s: float, T_next_prev: np.ndarray, normal: np.ndarray | None,
               near_px_per_step: float, span: RoadSpan[Frame], baseline_px: float | None = None) -> None:
         """After the step over ``span`` ending at frame ``current`` (``time_s``) with the metric motion ``T_next_prev``
         (4x4, the step's own length estimate) whose road moved its near points ``near_px_per_step`` beyond the rotation
-        (0: no trusted plane): where that is less than ``baseline_px`` (None: the fixed one; more where the drive's
-        road flow is noisy, :class:`flowvo.odometry.road_noise.RoadFlowNoise`), and :meth:`end` kept no key frame, the
-        next step measures the road from the frame ``ceil(baseline_px / near_px_per_step)`` steps before it (at most
-        ``MAX_ROAD_KEY_S`` back), its flow predicted by the road's ``normal`` (current frame; None: no prediction,
-        no sliding key frame) ``camera_height_m`` below that frame under the steps since and this one again.
+        (:meth:`baseline_parallax_px`; 0: none): where that is less than ``baseline_px`` (None: the fixed one; more
+        where the drive's road flow is noisy, :class:`flowvo.odometry.road_noise.RoadFlowNoise`), and :meth:`end` kept
+        no key frame, the next step measures the road from the frame ``ceil(baseline_px / near_px_per_step)`` steps
+        before it (at most ``MAX_ROAD_KEY_S`` back), its flow predicted by the road's ``normal`` (current frame; None:
+        no prediction, no sliding key frame) ``camera_height_m`` below that frame under the steps since and this one
+        again.
 
         Where the road needs more than the fixed baseline and this step's road flow, measured without a prediction,
         found no trusted plane, the next step's flow is predicted by the road's normal under this step's motion: a

@@ -44,7 +44,8 @@ class RoadLength:
         self.tally = RoadPlaneTally()
         self.profile = RoadProfile()
         self.noise = RoadFlowNoise()
-        self.near_parallax_px = 0.0  # the last trusted plane's near road motion beyond the rotation (pixels; 0: none)
+        self.near_parallax_px = 0.0  # the last step's near road motion beyond the rotation since the key frame
+        # (pixels; its plane trusted or refused; 0: no fit)
 
     def advance(self, R_next_prev: np.ndarray, dt_s: float, step_m: float) -> None:
         """Carry the road's normal over a step of ``dt_s`` seconds and about ``step_m`` metres with rotation
@@ -68,7 +69,7 @@ class RoadLength:
         if key_fit is None or not len(road[0]):
             return None, None
         parallax_px = translation_parallax_px(road[0], road[1], self.K, key_fit.R)
-        near_px = near_of(parallax_px)
+        near_px = self.near_parallax_px = near_of(parallax_px)  # whether or not its plane is trusted
         if near_px < self.min_parallax_px:  # the road's flow is lost: no depth to triangulate
             return None, None
         points = road_points(road[0], road[1], self.K, key_fit, levelling=self.levelling)
@@ -83,7 +84,6 @@ class RoadLength:
         if plane is None:
             return None, None
         self.noise.observe(residuals, parallax_px)  # and so does the flow's noise
-        self.near_parallax_px = near_px
         plane = self.normal.smoothed(in_camera_frame(plane, levelling), key_fit.R, keep=measured,
                                      camera_height_m=self.camera_height_m)
         return plane, self.camera_height_m / plane.distance
