@@ -9,13 +9,13 @@ At speed, where the view holds only distant scenery (past a crest) the essential
 sideways or backwards; such a direction is refused and the last one taken at speed is used instead (the
 forward axis before any).
 
-At any speed both parts lie on the side the car turns to (a camera ahead of the rear axle: KITTI's ground truth
-reads ``L`` 0.85-0.99 m on 00, 03, 05, 07 and 08). A direction further than ``MAX_AGAINST_TURN_DEG`` against the
-step's turn is a failed fit: near a wall that fills the view, the fit's yaw trades against a sideways direction
-(a synthetic replay of KITTI 03, turning at 2.5 m/s toward a facade 8 m ahead: steps 0.8 degrees too far, their
-directions 22-35 degrees against the turn, 9 degrees of yaw lost in 20 steps). It is refused for the last
-direction taken at any speed. Directions are unit 3-vectors in the camera frame of the step's first frame (x
-right, y down, z forward); yaws in radians, positive to the right.
+At any speed both parts of that angle lie on the side the car turns to (a camera ahead of the rear axle: KITTI's
+ground truth reads ``L`` 0.85-0.99 m on 00, 03, 05, 07 and 08). A direction further than ``MAX_AGAINST_TURN_DEG``
+against the step's turn is a failed fit: near a wall that fills the view, the fit's yaw trades against a sideways
+direction (a synthetic replay of KITTI 03, turning at 2.5 m/s toward a facade 8 m ahead: steps 0.8 degrees too far,
+their directions 22-35 degrees against the turn, 9 degrees of yaw lost in 20 steps). It is refused for the last
+direction taken at any speed. Directions are unit 3-vectors in the camera frame of the step's first frame (x right,
+y down, z forward); yaws in radians, positive to the right.
 """
 
 from __future__ import annotations
@@ -31,7 +31,8 @@ MIN_TURN_DEG = 0.3  # a step that turns less has no side for its direction of tr
 
 
 class TravelDirection:
-    """The check of each fitted direction of travel against the camera's forward axis (module docstring)."""
+    """The checks of each fitted direction of travel: against its step's turn, and at speed against the camera's
+    forward axis (module docstring)."""
 
     def __init__(self, forward: np.ndarray, right: np.ndarray, max_angle_deg: float = MAX_ANGLE_DEG,
                  min_speed_mps: float = MIN_SPEED_MPS) -> None:
@@ -45,10 +46,10 @@ class TravelDirection:
         self.against_turn_steps = 0  # steps whose fitted direction was refused against their turn
 
     def checked(self, direction: np.ndarray, speed_mps: float | None, yaw_rad: float = 0.0) -> np.ndarray:
-        """The direction of travel to take for a step turning ``yaw_rad`` whose fit gave ``direction`` (unit) with
-        the car at ``speed_mps`` (m/s; None: not known): that one; the last one taken when ``direction`` lies more
-        than ``MAX_AGAINST_TURN_DEG`` against the turn; the last one taken at speed when the car is fast and
-        ``direction`` lies more than the limit off the forward axis."""
+        """The direction of travel to take for a step turning ``yaw_rad`` (0: not turning) whose fit gave
+        ``direction`` (unit) with the car at ``speed_mps`` (m/s; None: not known): that one; the last one taken when
+        ``direction`` lies more than ``MAX_AGAINST_TURN_DEG`` against the turn; the last one taken at speed when the
+        car is fast and ``direction`` lies more than the limit off the forward axis."""
         if self._against_turn(direction, yaw_rad):
             self.against_turn_steps += 1
             return self.last_any
