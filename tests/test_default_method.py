@@ -107,18 +107,26 @@ def test_a_still_view_at_speed_keeps_the_last_motion_until_the_car_could_have_br
     np.testing.assert_array_equal(step.motion((1.0, 1.1), None, still), np.eye(4))  # 9.8 m/s: down to 2.2
 
 
-@pytest.mark.parametrize(("step_m", "kept"), [(1.0, True), (0.3, False)])
-def test_at_speed_a_fitted_direction_no_car_can_take_gives_way_to_the_last_one(step_m, kept):
-    """A step forward, then tracks that move as if the camera had slid sideways: at 10 m/s the direction of
-    travel stays the last one; at 3 m/s (a camera swinging in a slow turn) the fit's motion is taken."""
+LEFT, RIGHT = (-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)  # sideways, in the camera's frame
+
+
+@pytest.mark.parametrize(("step_m", "side", "refused_by"), [(1.0, LEFT, "direction_kept_steps"), (0.3, LEFT, None),
+                                                            (0.3, RIGHT, "direction_against_turn_steps")])
+def test_a_fitted_direction_no_car_can_take_gives_way_to_the_last_one(step_m, side, refused_by):
+    """A step forward, then tracks that move as if the camera had slid sideways while turning left. Slid left at
+    10 m/s (further off its axis than a car at speed travels), or right at any speed (against its turn), the
+    direction of travel stays the last one; slid left at 3 m/s (a camera swinging in a slow turn) the fit's motion is
+    taken. The run counts the step by the check that refused it."""
     step = FlowGeometryStep(CAMERA, HW)
     step.motion((0.0, 0.1), None, step_flow(step, step_m))
-    sideways = step.motion((0.1, 0.2), None, step_flow(step, step_m, yaw_rad=0.02, direction=(1.0, 0.0, 0.0)))
+    sideways = step.motion((0.1, 0.2), None, step_flow(step, step_m, yaw_rad=0.02, direction=side))
     travel = sideways[:3, 3] / np.linalg.norm(sideways[:3, 3])
-    np.testing.assert_allclose(travel, [0.0, 0.0, 1.0] if kept else [1.0, 0.0, 0.0], atol=1e-4)
-    if not kept:
+    np.testing.assert_allclose(travel, side if refused_by is None else [0.0, 0.0, 1.0], atol=1e-4)
+    if refused_by is None:
         np.testing.assert_allclose(sideways[:3, :3], so3_exp(np.array([0.0, 0.02, 0.0])).T, atol=1e-4)
-    assert step.summary()["direction_kept_steps"] == kept
+    counts = step.summary()
+    assert [name for name in ("direction_kept_steps", "direction_against_turn_steps") if counts[name]] == \
+        ([] if refused_by is None else [refused_by])
 
 
 WRONG_R = so3_exp(np.array([0.0, 0.03, 0.0]))  # a sideways fit's rotation, 0.6 degrees off a 0.02 rad turn (a yaw
@@ -127,12 +135,12 @@ WRONG_R = so3_exp(np.array([0.0, 0.03, 0.0]))  # a sideways fit's rotation, 0.6 
 
 def at_speed_with_sideways_fits(monkeypatch):
     """A step after a forward 1 m step at 10 m/s turning 0.02 rad whose essential fits from now on come back
-    sideways (every track an inlier) with rotation ``WRONG_R``."""
+    sideways, to the left it turns to (every track an inlier), with rotation ``WRONG_R``."""
     step = FlowGeometryStep(CAMERA, HW)
     step.motion((0.0, 0.1), None, step_flow(step, 1.0, yaw_rad=0.02))
 
     def sideways_fit(points_prev, points_next, K, threshold_px, robust_scale_px=None):
-        return EssentialMotion(WRONG_R, -WRONG_R @ np.array([1.0, 0.0, 0.0]), np.ones(len(points_prev), bool))
+        return EssentialMotion(WRONG_R, -WRONG_R @ np.array(LEFT), np.ones(len(points_prev), bool))
 
     monkeypatch.setattr("flowvo.methods.flowvo.essential_motion", sideways_fit)
     return step
