@@ -5,7 +5,7 @@ import pytest
 from swaying_drive import swaying_drive
 
 from flowvo.cli import build_parser, main
-from flowvo.cli.run import _bowl_warning, _mounting_note, _pitch_words, _unscaled_warning, _view_notes
+from flowvo.cli.run import _bowl_warning, _mounting_note, _mounting_words, _unscaled_warning, _view_notes
 from flowvo.geometry import chain_planar, chain_se3, relative_motions, so3_exp
 from flowvo.metrics.error_split import turn_rotation, with_direction_turned
 
@@ -134,9 +134,11 @@ def test_a_run_whose_steps_mostly_lack_a_scale_warns_and_names_the_step_records(
     assert _unscaled_warning({"steps": None}, "OUT") is None  # a method without a window
 
 
-def test_a_pitch_is_said_in_words_down_or_up():
-    assert _pitch_words(8.3) == "pitched 8.3 deg down" and _pitch_words(-1.8) == "pitched 1.8 deg up"
-    assert _pitch_words(-2.14, 1) == "pitched 2.1 deg up"
+def test_a_pitch_and_a_roll_are_said_in_words_down_or_up_right_or_left():
+    assert _mounting_words(8.3, 0.0) == ["pitched 8.3 deg down"]
+    assert _mounting_words(-1.8, 0.0) == ["pitched 1.8 deg up"]
+    assert _mounting_words(-2.14, 6.0, 1) == ["pitched 2.1 deg up", "rolled 6.0 deg (right side down)"]
+    assert _mounting_words(0.0, -4.0) == ["rolled 4 deg (left side down)"] and _mounting_words(0.0, 0.0) == []
 
 
 def test_the_mounting_note_names_what_was_taken_and_advises_what_differs_from_what_was_given():

@@ -124,11 +124,13 @@ def _view_notes(summary: dict) -> list[str]:
     return notes
 
 
-def _pitch_words(pitch_deg: float, places: int | None = None) -> str:
-    """A pitch (degrees, down positive) in words: "pitched 1.8 deg up" (``places`` decimals; None: as short as it
-    goes)."""
-    size = f"{abs(pitch_deg):g}" if places is None else f"{abs(pitch_deg):.{places}f}"
-    return f"pitched {size} deg {'down' if pitch_deg > 0 else 'up'}"
+def _mounting_words(pitch_deg: float, roll_deg: float, places: int | None = None) -> list[str]:
+    """A mounting's nonzero pitch and roll (degrees, down and right side down positive) in words: "pitched 1.8 deg
+    up", "rolled 4 deg (left side down)" (``places`` decimals; None: as short as it goes)."""
+    def size(deg: float) -> str:
+        return f"{abs(deg):g}" if places is None else f"{abs(deg):.{places}f}"
+    return ([f"pitched {size(pitch_deg)} deg {'down' if pitch_deg > 0 else 'up'}"] if pitch_deg else []) + \
+        ([f"rolled {size(roll_deg)} deg ({'right' if roll_deg > 0 else 'left'} side down)"] if roll_deg else [])
 
 
 def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) -> str | None:
@@ -139,8 +141,7 @@ def _mounting_note(planes: dict, given_pitch_deg: float, given_roll_deg: float) 
         return None
     pitch_deg, roll_deg = planes["pitches_taken_deg"][-1], planes["rolls_taken_deg"][-1]
     pitch_changed, roll_changed = bool(round(pitch_deg - given_pitch_deg, 1)), bool(round(roll_deg - given_roll_deg, 1))
-    taken = ([_pitch_words(pitch_deg, 1)] if pitch_changed else []) + \
-        ([f"rolled {roll_deg:.1f} deg (right side down)"] if roll_changed else [])
+    taken = _mounting_words(pitch_deg if pitch_changed else 0.0, roll_deg if roll_changed else 0.0, 1)
     options = ([f"--camera-pitch {pitch_deg:.1f}"] if pitch_changed else []) + \
         ([f"--camera-roll {roll_deg:.1f}"] if roll_changed else [])
     advice = f": {' '.join(options)} measures with it from the first frame" if options else ""
@@ -157,8 +158,7 @@ def _camera_line(summary: dict) -> str:
     if not camera["camera_height_given"]:
         height += " (KITTI's)" if camera["source"] == "kitti" else \
             " (KITTI's, assumed: give --camera-height M, the camera's height above the road)"
-    pitch = f", {_pitch_words(camera['camera_pitch_deg'])}" if camera["camera_pitch_deg"] else ""
-    pitch += f", rolled {camera['camera_roll_deg']:g} deg (right side down)" if camera["camera_roll_deg"] else ""
+    pitch = "".join(f", {words}" for words in _mounting_words(camera["camera_pitch_deg"], camera["camera_roll_deg"]))
     pitch += f", rolling shutter read out over {camera['readout_ms']:g} ms" if camera.get("readout_ms") else ""
     scaled = "" if "scaled_from_image_size" not in camera else \
         " (scaled to the frames from the calibration's {}x{} images)".format(*camera["scaled_from_image_size"])
