@@ -1,6 +1,6 @@
 """The checks of a step's motion up to scale (flowvo.odometry.motion_checks.MotionChecks): the rotation from the
 rotation key frame, a yaw rate that jumped below 6 m/s, a sideways direction at speed, a direction against the
-turn, and their counts, on
+turn, one whose elevation jumped, and their counts, on
 exact tracks of a scene projected through a pinhole K."""
 
 import numpy as np
@@ -129,6 +129,22 @@ def test_a_direction_refused_at_speed_leaves_its_refitted_yaw_rate_for_the_next_
     assert after_the_wrong_rate.checked(slower, None, slow_tracks, 0.1, 3.0) is not slower
 
 
+def test_a_direction_whose_elevation_jumped_takes_the_last_direction_with_the_rotation_the_tracks_give_along_it():
+    """After three forward steps at 3 m/s, a fit of the next (turning 0.01 rad) comes back 8 degrees low with its
+    pitch 0.2 degrees up: the step goes forward (the last direction taken) with the true rotation, refitted to the
+    tracks along it."""
+    motion_checks = checks()
+    true, tracks = step(yaw(0.01), length_m=0.3)
+    for _ in range(3):
+        assert motion_checks.checked(true, None, tracks, 0.1, 3.0) is true
+    pitched = so3_exp(np.array([np.radians(0.2), 0.0, 0.0])) @ true.R
+    low = np.array([0.0, np.sin(np.radians(8.0)), np.cos(np.radians(8.0))])  # y down: 8 degrees below the axis
+    checked = motion_checks.checked(fit_of(pitched, -pitched @ low), None, tracks, 0.1, 3.0)
+    np.testing.assert_allclose(checked.R, true.R, atol=1e-9)
+    np.testing.assert_allclose(-checked.R.T @ checked.t_dir, FORWARD, atol=1e-9)
+    assert motion_checks.summary()["direction_elevation_steps"] == 1
+
+
 def test_the_summary_counts_the_steps_each_check_changed():
     motion_checks = checks()
     R_ab, (true_bc, tracks_bc) = yaw(0.004), step(yaw(0.006), length_m=0.3)
@@ -139,7 +155,8 @@ def test_the_summary_counts_the_steps_each_check_changed():
     motion_checks.checked(fit_of(yaw(0.03), -yaw(0.03) @ SIDEWAYS), None, tracks, 0.1, 10.0)  # sideways at speed
     motion_checks.checked(fit_of(yaw(0.02), yaw(0.02) @ SIDEWAYS), None, tracks, 0.1, 3.0)  # against the turn
     assert motion_checks.summary() == {"direction_kept_steps": 1, "direction_against_turn_steps": 1,
-                                       "yaw_refused_steps": 1, "rotation_key_steps": 1}
+                                       "direction_elevation_steps": 0, "yaw_refused_steps": 1,
+                                       "rotation_key_steps": 1}
 
 
 def test_forget_drops_the_rotation_key_frame_and_the_last_yaw_rate():

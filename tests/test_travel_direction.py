@@ -1,6 +1,6 @@
 """A car's direction of travel: a fitted direction further off the camera's forward axis than a car at speed can
 travel is refused for the last one taken at speed (a slow car's is not checked for that); one against the step's
-turn is refused at any speed for the last one taken."""
+turn, or one whose elevation jumped from the recent ones', is refused at any speed for the last one taken."""
 
 import numpy as np
 
@@ -10,10 +10,10 @@ FORWARD = np.array([0.0, 0.0, 1.0])
 RIGHT = np.array([1.0, 0.0, 0.0])
 
 
-def heading(deg: float) -> np.ndarray:
-    """A unit direction in the camera's ground plane, ``deg`` from straight ahead towards the right."""
-    angle = np.radians(deg)
-    return np.array([np.sin(angle), 0.0, np.cos(angle)])
+def heading(deg: float, up_deg: float = 0.0) -> np.ndarray:
+    """A unit direction ``deg`` from straight ahead towards the right, ``up_deg`` above the camera's ground plane."""
+    angle, up = np.radians(deg), np.radians(up_deg)
+    return np.array([np.sin(angle) * np.cos(up), -np.sin(up), np.cos(angle) * np.cos(up)])
 
 
 def test_at_speed_a_direction_within_the_limit_is_taken_one_beyond_gives_way_to_the_last_taken():
@@ -59,3 +59,34 @@ def test_a_direction_against_the_turn_gives_way_to_the_last_one_taken_at_any_spe
     barely_turning = heading(-25.0)
     assert travel.checked(barely_turning, speed_mps=2.5, yaw_rad=np.radians(0.2)) is barely_turning
     assert travel.against_turn_steps == 3
+
+
+def test_a_direction_whose_elevation_jumped_gives_way_to_the_last_one_taken_at_any_speed():
+    """Over the last directions taken (the median of their elevations: 1 degree up), one 7 degrees down (a pitch
+    traded against an elevation, facing a wall) is refused for the last one taken, slow or fast; one 3.5 degrees
+    down (within 5 degrees) is taken. The first three directions are not held to any."""
+    travel = TravelDirection(FORWARD, RIGHT)
+    first = heading(0.0, 9.0)
+    assert travel.checked(first, speed_mps=2.5) is first  # nothing to hold the first ones to
+    for up_deg in (1.0, 1.0):
+        travel.checked(heading(2.0, up_deg), speed_mps=2.5)
+    last = heading(1.0, 0.5)
+    assert travel.checked(last, speed_mps=2.5) is last
+    assert travel.checked(heading(4.0, -7.0), speed_mps=2.5) is last
+    assert travel.checked(heading(0.0, -6.0), speed_mps=12.0) is last
+    assert travel.elevation_jump_steps == 2 and travel.kept_steps == 0
+    lower = heading(1.0, -3.5)
+    assert travel.checked(lower, speed_mps=2.5) is lower
+    assert travel.elevation_jump_steps == 2
+
+
+def test_the_recent_elevations_carry_a_camera_mounted_pitched_up():
+    """A camera pitched 5 degrees up whose car's axes are not known yet (the camera's own): its car travels 5
+    degrees below the camera's axis on every step, and those directions are taken; one level with the camera's axis
+    is the jump."""
+    travel = TravelDirection(FORWARD, RIGHT)
+    for _ in range(5):
+        down = heading(0.0, -5.0)
+        assert travel.checked(down, speed_mps=8.0) is down
+    assert travel.checked(heading(0.0, 0.5), speed_mps=8.0) is down
+    assert travel.elevation_jump_steps == 1

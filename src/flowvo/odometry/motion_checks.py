@@ -1,7 +1,8 @@
 """A step's motion up to scale, checked against what a car can do: its rotation measured from the rotation key
 frame where there is one (:mod:`flowvo.odometry.rotation_key`), a yaw rate that jumped refused below 6 m/s
-(:mod:`flowvo.odometry.yaw_rate`), a direction of travel against the step's turn refused, and one too far off the
-car's axis refused at speed (:mod:`flowvo.odometry.travel_direction`).
+(:mod:`flowvo.odometry.yaw_rate`), a direction of travel against the step's turn refused, one whose elevation jumped
+from the recent directions' refused, and one too far off the car's axis refused at speed
+(:mod:`flowvo.odometry.travel_direction`).
 
 Tracks are undistorted working pixels (N, 2); rotations ``R_next_prev``; times in seconds; speeds in m/s.
 """
@@ -85,10 +86,10 @@ class MotionChecks(Generic[Frame]):
 
     def _travel_checked(self, fit: EssentialMotion, tracks: tuple[np.ndarray, np.ndarray],
                         last_speed_mps: float | None) -> EssentialMotion:
-        """The fit, or, where its direction of travel lies against its turn or further off the forward axis than a
-        fast car's can (:class:`TravelDirection`), the motion along the direction taken instead with its rotation
-        fitted again to the tracks (:func:`motion_along`: the fit's rotation came with its wrong direction; kept
-        where no rotation along that direction explains 30 tracks)."""
+        """The fit, or, where its direction of travel lies against its turn, jumped up or down from the recent ones, or
+        lies further off the forward axis than a fast car's can (:class:`TravelDirection`), the motion along the
+        direction taken instead with its rotation fitted again to the tracks (:func:`motion_along`: the fit's rotation
+        came with its wrong direction; kept where no rotation along that direction explains 30 tracks)."""
         direction = -fit.R.T @ fit.t_dir  # of travel, in the first frame of the step
         yaw_rad = -float(so3_log(fit.R) @ self.yaw_rate.up)  # positive to the right: R is R_next_prev
         taken = self.travel.checked(direction, last_speed_mps, yaw_rad)
@@ -109,5 +110,6 @@ class MotionChecks(Generic[Frame]):
         """How many steps each check changed."""
         return {"direction_kept_steps": self.travel.kept_steps,
                 "direction_against_turn_steps": self.travel.against_turn_steps,
+                "direction_elevation_steps": self.travel.elevation_jump_steps,
                 "yaw_refused_steps": self.yaw_rate.refused_steps,
                 "rotation_key_steps": self.rotation_key_steps}
