@@ -39,8 +39,7 @@ class MotionChecks(Generic[Frame]):
 
     def turn_car_axes(self, car_axes: np.ndarray) -> None:
         """The car's axes are now the columns of ``car_axes`` (the camera's pitch was taken from the drive)."""
-        self.travel.forward = car_axes[:, 2] / np.linalg.norm(car_axes[:, 2])
-        self.travel.right = car_axes[:, 0] / np.linalg.norm(car_axes[:, 0])
+        self.travel.turn(car_axes[:, 2], car_axes[:, 0])
         self.yaw_rate.up = car_axes[:, 1] / np.linalg.norm(car_axes[:, 1])
 
     def forget(self) -> None:

@@ -30,6 +30,7 @@ radians, positive to the right.
 
 from __future__ import annotations
 
+import statistics
 from collections import deque
 
 import numpy as np
@@ -44,6 +45,7 @@ MAX_ELEVATION_JUMP_DEG = 5.0  # a direction of travel further up or down from th
 # (docstring): of the 18895 steps of KITTI's ground truth 00-07, 09 and 10 (08 starts by climbing 1.85 m/s, an error of
 # its truth), 17 lie further from the median of their last ELEVATION_STEPS, none of the real clips' own steps
 ELEVATION_STEPS = 9  # the directions taken last whose median elevation a new one is held to
+MAX_ELEVATION_JUMP_RAD = float(np.radians(MAX_ELEVATION_JUMP_DEG))
 
 
 class TravelDirection:
@@ -52,8 +54,7 @@ class TravelDirection:
 
     def __init__(self, forward: np.ndarray, right: np.ndarray, max_angle_deg: float = MAX_ANGLE_DEG,
                  min_speed_mps: float = MIN_SPEED_MPS) -> None:
-        self.forward = np.asarray(forward, dtype=float) / np.linalg.norm(forward)
-        self.right = np.asarray(right, dtype=float) / np.linalg.norm(right)  # the car's right axis
+        self.turn(forward, right)
         self.min_cosine = float(np.cos(np.radians(max_angle_deg)))
         self.min_speed_mps = min_speed_mps
         self.last_taken = self.forward  # the last direction taken at speed
@@ -62,6 +63,12 @@ class TravelDirection:
         self.against_turn_steps = 0  # steps whose fitted direction was refused against their turn
         self.elevation_jump_steps = 0  # steps whose fitted direction was refused for its elevation
         self._recent: deque[np.ndarray] = deque(maxlen=ELEVATION_STEPS)  # the directions taken last
+
+    def turn(self, forward: np.ndarray, right: np.ndarray) -> None:
+        """The car's forward and right axes are now ``forward`` and ``right`` (camera frame, any length)."""
+        self.forward = np.asarray(forward, dtype=float) / np.linalg.norm(forward)
+        self.right = np.asarray(right, dtype=float) / np.linalg.norm(right)
+        self._up = np.cross(self.right, self.forward)  # x right, y down, z forward: right x forward points up
 
     def checked(self, direction: np.ndarray, speed_mps: float | None, yaw_rad: float = 0.0) -> np.ndarray:
         """The direction of travel to take for a step turning ``yaw_rad`` (0: not turning) whose fit gave
@@ -85,18 +92,13 @@ class TravelDirection:
         self._recent.append(direction)
         return direction
 
-    def _elevation_rad(self, direction: np.ndarray) -> float:
-        """The elevation of ``direction`` above the car's plane of its forward and right axes (radians, up positive)."""
-        down = np.cross(self.forward, self.right)
-        return float(np.arcsin(np.clip(-direction @ down, -1.0, 1.0)))
-
     def _elevation_jumped(self, direction: np.ndarray) -> bool:
-        """Whether ``direction``'s elevation lies more than ``MAX_ELEVATION_JUMP_DEG`` from the median of the last
-        ``ELEVATION_STEPS`` directions taken (three at least)."""
+        """Whether ``direction``'s elevation above the car's plane of its forward and right axes lies more than
+        ``MAX_ELEVATION_JUMP_DEG`` from the median of the last ``ELEVATION_STEPS`` directions taken (three at least)."""
         if len(self._recent) < 3:
             return False
-        recent = np.median([self._elevation_rad(taken) for taken in self._recent])
-        return abs(self._elevation_rad(direction) - recent) > np.radians(MAX_ELEVATION_JUMP_DEG)
+        elevations_rad = np.arcsin(np.clip(np.array((*self._recent, direction)) @ self._up, -1.0, 1.0)).tolist()
+        return abs(elevations_rad[-1] - statistics.median(elevations_rad[:-1])) > MAX_ELEVATION_JUMP_RAD
 
     def _against_turn(self, direction: np.ndarray, yaw_rad: float) -> bool:
         """Whether ``direction`` lies more than ``MAX_AGAINST_TURN_DEG`` to the other side than a step turning
